@@ -1,0 +1,1 @@
+"""LLM-Land command-line front end: launch services, run episodes, experiments, benchmarks."""

@@ -1,0 +1,115 @@
+"""``llmland``: launch the services, fly episodes, run benchmarks (DESIGN §13)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from llmland_schemas import MissionGoal
+from llmland_schemas.service import configure_logging, shutdown_event
+
+from .episodes import PILOT_FOR_METHOD, EpisodeRunner, new_episode_id
+from .launch import Stack, free_port, hub_bus
+
+log = logging.getLogger("llmland")
+
+WORLDS = ["open_field", "urban", "forest_edge"]
+METHODS = list(PILOT_FOR_METHOD)
+
+
+def _services_for(method: str) -> list[str]:
+    return ["sim", PILOT_FOR_METHOD[method]]
+
+
+def cmd_land(args: argparse.Namespace) -> int:
+    port = args.port or free_port()
+    rrd = str(Path(args.rrd).resolve()) if args.rrd else None
+    with hub_bus(port) as bus, Stack(port, args.drone_id, log_level=args.service_log_level) as stack:
+        stack.start(_services_for(args.method))
+        stack.wait_alive(bus)
+        runner = EpisodeRunner(bus, args.drone_id)
+        mission = MissionGoal(
+            drone_id=args.drone_id,
+            episode_id=new_episode_id(args.world, args.seed, args.method),
+            world=args.world,
+            seed=args.seed,
+            method=args.method,
+            clock=args.clock,
+            timeout_s=args.timeout,
+            rrd_path=rrd,
+        )
+        result = runner.run(mission)
+    sys.stdout.write(result.model_dump_json(indent=2) + "\n")
+    return 0 if result.success or not args.strict else 1
+
+
+def cmd_up(args: argparse.Namespace) -> int:
+    stop = shutdown_event()
+    port = args.port
+    with hub_bus(port) as bus, Stack(port, args.drone_id, log_level=args.service_log_level) as stack:
+        stack.start(args.services)
+        stack.wait_alive(bus)
+        log.info("services up on tcp/127.0.0.1:%d: %s — Ctrl-C stops all", port, ", ".join(args.services))
+        while not stop.wait(0.5):
+            for name, proc in stack.procs.items():
+                if proc.poll() is not None:
+                    log.error("%s exited with code %s", name, proc.returncode)
+                    return 1
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from . import bench
+
+    figures = bench.run(args.what, quick=args.quick)
+    if args.json:
+        sys.stdout.write(json.dumps(figures, indent=2) + "\n")
+    else:
+        for k, v in figures.items():
+            sys.stdout.write(f"{k:40s} {v}\n")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="llmland", description=__doc__)
+    parser.add_argument("--log-level", default="INFO")
+    parser.add_argument("--service-log-level", default="WARNING", help="log level of the child services")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    land = sub.add_parser("land", help="fly one episode and print its EpisodeResult JSON")
+    land.add_argument("--world", choices=WORLDS, default="open_field")
+    land.add_argument("--method", choices=METHODS, default="reference")
+    land.add_argument("--seed", type=int, default=1)
+    land.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
+    land.add_argument("--timeout", type=float, default=60.0, help="episode time limit (sim seconds)")
+    land.add_argument("--rrd", help="write a Rerun recording of the episode to this file")
+    land.add_argument("--drone-id", default="d0")
+    land.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
+    land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
+    land.set_defaults(func=cmd_land)
+
+    up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
+    up.add_argument("--services", nargs="+", default=["sim", "pilot"])
+    up.add_argument("--drone-id", default="d0")
+    up.add_argument("--port", type=int, default=7447)
+    up.set_defaults(func=cmd_up)
+
+    bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
+    bench.add_argument("what", choices=["bus", "sim"])
+    bench.add_argument("--json", action="store_true")
+    bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
+    bench.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    configure_logging(args.log_level)
+    sys.exit(args.func(args))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""Run one episode over the bus: send the mission, wait for its EpisodeResult."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+import uuid
+
+from llmland_schemas import EpisodeResult, MissionGoal, Topic, VehicleState, key
+from llmland_schemas.bus import Bus
+
+log = logging.getLogger(__name__)
+
+#: Methods and the service that flies them (the rest of the stack is added per method).
+PILOT_FOR_METHOD = {"reference": "pilot", "baseline": "planner", "llm": "planner", "llm-land": "planner"}
+
+
+def new_episode_id(world: str, seed: int, method: str) -> str:
+    return f"{world}-s{seed}-{method}-{uuid.uuid4().hex[:6]}"
+
+
+class EpisodeRunner:
+    """Sends missions on one drone's keys and collects their results."""
+
+    def __init__(self, bus: Bus, drone_id: str = "d0") -> None:
+        self.bus = bus
+        self.drone_id = drone_id
+        self._cond = threading.Condition()
+        self._results: dict[str, EpisodeResult] = {}
+        self._started: set[str] = set()
+        bus.subscribe(key(drone_id, Topic.RESULT), EpisodeResult, self._on_result)
+        bus.subscribe(key(drone_id, Topic.STATE), VehicleState, self._on_state)
+
+    def _on_result(self, _k: str, msg: EpisodeResult) -> None:
+        with self._cond:
+            self._results[msg.episode_id] = msg
+            self._cond.notify_all()
+
+    def _on_state(self, _k: str, msg: VehicleState) -> None:
+        if msg.episode_id not in self._started:
+            with self._cond:
+                self._started.add(msg.episode_id)
+                self._cond.notify_all()
+
+    def run(self, mission: MissionGoal, wall_timeout_s: float | None = None) -> EpisodeResult:
+        """Start ``mission`` (re-sent until the sim answers) and wait for its result."""
+        mission_key = key(self.drone_id, Topic.MISSION)
+        wall_timeout_s = wall_timeout_s or max(120.0, 20.0 * mission.timeout_s)
+        deadline = time.monotonic() + wall_timeout_s
+        with self._cond:
+            while mission.episode_id not in self._started and mission.episode_id not in self._results:
+                self.bus.publish(mission_key, mission)
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"the sim never started episode {mission.episode_id}")
+                self._cond.wait(0.5)
+            while mission.episode_id not in self._results:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    self.bus.publish(mission_key, mission.model_copy(update={"command": "stop"}))
+                    raise TimeoutError(f"no result for episode {mission.episode_id} after {wall_timeout_s:.0f} s")
+                self._cond.wait(min(left, 1.0))
+            return self._results.pop(mission.episode_id)

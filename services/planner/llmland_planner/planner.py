@@ -1,0 +1,213 @@
+"""The planner pipeline for one episode, without the bus.
+
+``tick(state)`` runs once per control tick: unsafe regions → landing phase → reference
+(a searched path, or a straight descent) → corridors → one MPC QP → body rates + thrust.
+
+Path search runs on a worker thread so a slow search never blocks the control loop. Its
+result is adopted only once the sim clock has advanced by the search's measured wall time
+(latency-honest in lockstep, where the sim may run faster than real time).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from llmland_schemas import CorridorPolytope, MissionGoal, PlanSnapshot, SafetySpecMessage, UnsafeBox, VehicleState
+from llmland_schemas.frames import CameraFrame
+
+from .corridors import Corridor, corridors_for_path, halfspaces_at_times
+from .dynamics import FloatArray, ModelParams
+from .landing import LandingLogic, Phase
+from .mpc import MpcController, MpcResult
+from .path import Path, resample
+from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
+from .search import SearchConfig, plan
+from .settings import PlannerSettings
+from .world_model import WorldModel
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class ActivePlan:
+    path: Path
+    corridors: list[Corridor]
+    goal_m: FloatArray
+    made_at_s: float
+    search_ms: float
+    progress_idx: int = 0
+
+
+@dataclass
+class _Job:
+    t0_s: float
+    goal_m: FloatArray
+    wall_s: float = 0.0
+    result: ActivePlan | None = None
+    failed: bool = False
+    done: threading.Event = field(default_factory=threading.Event)
+
+
+@dataclass
+class TickOutput:
+    body_rates_rps: FloatArray
+    thrust_n: float
+    mode: str
+    mpc: MpcResult | None
+    tick_ms: float
+    snapshot: PlanSnapshot | None = None
+
+
+class Planner:
+    """One drone's planner. Not thread-safe except ``on_frame``/``on_spec`` vs ``tick``."""
+
+    def __init__(self, settings: PlannerSettings | None = None, params: ModelParams | None = None) -> None:
+        self.settings = s = settings or PlannerSettings()
+        self.params = params or ModelParams()
+        self.mpc = MpcController(self.params, horizon=s.horizon, dt=s.mpc_dt_s, max_halfspaces=s.max_halfspaces)
+        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=(100.0, 100.0, s.max_altitude_m))
+        self._lock = threading.Lock()
+        self.mission: MissionGoal | None = None
+        self.world: WorldModel | None = None
+        self.landing: LandingLogic | None = None
+        self.active: ActivePlan | None = None
+        self._job: _Job | None = None
+        self._last_replan_s = -1e9
+        self._yaw_ref = 0.0
+        self.failed_searches = 0
+
+    # ------------------------------------------------------------------ episode inputs
+    def start(self, mission: MissionGoal) -> None:
+        assert mission.target_m is not None and mission.start_m is not None
+        with self._lock:
+            self.mission = mission
+            self.world = WorldModel(self.settings, mission.method)
+            self.landing = LandingLogic(np.asarray(mission.target_m, dtype=float), self.settings)
+            self.active, self._job = None, None
+            self._last_replan_s = -1e9
+            d = np.subtract(mission.target_m, mission.start_m)[:2]
+            self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
+            self.mpc.reset()
+        log.info("planner: episode %s method=%s target=%s", mission.episode_id, mission.method, mission.target_m)
+
+    def on_frame(self, frame: CameraFrame) -> None:
+        with self._lock:
+            if self.world is not None:
+                self.world.on_frame(frame)
+
+    def on_spec(self, msg: SafetySpecMessage) -> None:
+        with self._lock:
+            if self.world is not None:
+                self.world.on_spec(msg)
+
+    # ------------------------------------------------------------------ control tick
+    def tick(self, state: VehicleState) -> TickOutput:
+        t_tick = time.perf_counter()
+        assert self.world is not None and self.landing is not None
+        t = state.stamp
+        pos, vel = np.asarray(state.position_m), np.asarray(state.velocity_mps)
+        with self._lock:
+            regions = self.world.regions(t)
+        phase, goal = self.landing.update(pos, vel, regions, t)
+        snapshot = None
+        if phase == Phase.TOUCHDOWN:
+            return TickOutput(np.zeros(3), 0.0, phase.value, None, 1e3 * (time.perf_counter() - t_tick))
+        n, dt = self.settings.horizon, self.settings.mpc_dt_s
+        halfspaces = None
+        if phase == Phase.DESCEND:
+            v_d = self.settings.descent_speed_mps
+            z = np.maximum(goal[2] + 0.03, pos[2] - v_d * dt * np.arange(1, n + 2))
+            ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z])
+            ref_vel = np.tile([0.0, 0.0, -v_d], (n + 1, 1))
+            ref_vel[z <= goal[2] + 0.031, 2] = 0.0
+            self.active = None
+        else:
+            snapshot = self._maybe_replan(t, pos, vel, goal, regions)
+            ref_pos, ref_vel, halfspaces = self._reference(pos, goal)
+        x0 = np.concatenate([pos, vel, np.asarray(state.euler_rpy_rad)])
+        res = self.mpc.solve(x0, ref_pos, ref_vel, self._yaw_ref, halfspaces, z_floor_m=float(goal[2]) - 0.5)
+        mode = phase.value if res.ok else "fallback"
+        return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
+                          1e3 * (time.perf_counter() - t_tick), snapshot)
+
+    # ------------------------------------------------------------------ search
+    def _maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
+                      regions: list[UnsafeRegion]) -> PlanSnapshot | None:
+        snapshot = None
+        job = self._job
+        if job is not None and job.done.is_set() and t >= job.t0_s + job.wall_s:
+            self._job = None
+            if job.result is not None:
+                self.active = job.result
+                snapshot = self._snapshot(t, regions)
+            else:
+                self.failed_searches += 1
+        need = (
+            self.active is None
+            or float(np.linalg.norm(self.active.goal_m - goal)) > 0.3
+            or t - self._last_replan_s >= self.settings.replan_period_s
+            or self._path_blocked(self.active.path, regions)
+        )
+        if need and self._job is None:
+            self._last_replan_s = t
+            self._job = _Job(t0_s=t, goal_m=goal.copy())
+            threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions)),
+                             daemon=True).start()
+        return snapshot
+
+    def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion]) -> None:
+        t0 = time.perf_counter()
+        try:
+            path = plan(pos, vel, job.goal_m, regions, self.search_cfg)
+            if path is not None:
+                cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
+                job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
+        except Exception:  # a search bug must not stop the control loop
+            log.exception("path search failed")
+        job.wall_s = time.perf_counter() - t0
+        job.done.set()
+
+    @staticmethod
+    def _path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
+        if not regions or len(path.p) < 2:
+            return False
+        lo, hi = boxes_array(regions)
+        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi))) if len(path.p) > 2 else False
+
+    # ------------------------------------------------------------------ reference
+    def _reference(self, pos: FloatArray, goal: FloatArray) -> tuple[FloatArray, FloatArray, list | None]:
+        n, dt = self.settings.horizon, self.settings.mpc_dt_s
+        act = self.active
+        if act is None:  # no plan yet: hold here (never rush toward the goal blind)
+            return np.tile(pos, (n + 1, 1)), np.zeros((n + 1, 3)), None
+        p = act.path
+        lo = act.progress_idx
+        hi = min(len(p.p), lo + 40)
+        idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
+        act.progress_idx = idx
+        t_ref = float(p.t[idx]) + dt
+        ref = resample(p, dt, t_start=t_ref, count=n + 1)
+        times = t_ref + dt * np.arange(1, n + 1)
+        hs = halfspaces_at_times(act.corridors, times, self.settings.max_halfspaces) if act.corridors else None
+        return ref.p, ref.v, hs
+
+    def _snapshot(self, t: float, regions: list[UnsafeRegion]) -> PlanSnapshot:
+        act = self.active
+        assert self.mission is not None
+        return PlanSnapshot(
+            drone_id=self.settings.drone_id,
+            stamp=t,
+            mode=self.landing.phase.value if self.landing else "",
+            reference_m=[tuple(map(float, q)) for q in act.path.p[::2]] if act else [],
+            corridors=[CorridorPolytope(A=[tuple(map(float, r)) for r in c.A], b=[float(x) for x in c.b])
+                       for c in (act.corridors if act else [])][:20],
+            regions=[UnsafeBox(obj_id=r.obj_id, lo_m=tuple(map(float, r.lo)), hi_m=tuple(map(float, r.hi)),
+                               label=r.label, is_dynamic=r.is_dynamic) for r in regions],
+            search_ms=act.search_ms if act else None,
+            episode_id=self.mission.episode_id,
+        )

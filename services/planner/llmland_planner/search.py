@@ -1,0 +1,264 @@
+"""Kinodynamic A* over constant-acceleration motion primitives (3-D double integrator).
+
+State ``(p, v)`` (m, m/s, world frame). Each primitive holds ``a`` from a per-axis level grid
+(``xy_levels`` × ``xy_levels`` × ``z_levels`` values in ``[-a_max, a_max]``) for ``tau_s``;
+its cost is ``‖a‖²·τ + ρ·τ``. Children whose speed exceeds ``v_max`` or whose sampled
+trajectory (points + slab tests between consecutive samples) touches an unsafe box, leaves
+the workspace box or dips below ``z_floor_m`` are dropped. Within ``shot_radius_m`` of the
+goal every expansion tries an analytic cubic "one-shot" to ``(goal, v = 0)``; the search ends
+when one is feasible.
+
+Heuristic ``h̃(p, v) = w · (h₀(p, v) + λ·φ(p))``. ``h₀ = ρ · T_lb`` with ``T_lb`` the larger of
+``‖goal − p‖ / v_max`` and the per-axis bang-bang minimum time under ``|a_d| ≤ a_max``,
+``|v_d| ≤ v_max``; it is admissible (``w = 1``). ``φ`` is the paper's region penalty read for
+*unsafe* boxes (the paper penalises leaving a safe box ``B``; here the safe set is the free
+space, the complement of the unsafe boxes): for every unsafe box grown by
+``penalty_margin_m`` that contains ``p``, add the squared distance needed to leave it through
+its nearest face plus ``ε`` — the same ``(p_d − b_d)² + ε`` term, taken on the exit axis.
+Since colliding primitives are rejected explicitly, φ acts in the margin band and steers the
+search away from regions early.
+
+Around the start and the goal, balls of ``clearance_radius_m`` are exempt from region, floor
+and penalty checks (so a drone hovering inside an inflated box can still leave, and a goal
+next to an obstacle stays reachable); anything outside these balls is always checked, so a
+path never crosses a region away from its endpoints. The workspace box is never exempt.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from llmland_planner.dynamics import FloatArray
+from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
+from llmland_planner.regions import UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
+
+__all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class SearchConfig:
+    """Tuning of the kinodynamic search (SI units)."""
+
+    a_max_mps2: float = 2.5
+    v_max_mps: float = 2.0
+    tau_s: float = 0.45
+    xy_levels: int = 3
+    z_levels: int = 3
+    rho: float = 10.0
+    penalty_lambda: float = 10.0
+    penalty_eps: float = 0.01
+    penalty_margin_m: float = 0.5
+    heuristic_weight: float = 2.0
+    clearance_radius_m: float = 0.5
+    z_floor_m: float = 0.2
+    workspace_lo: tuple[float, float, float] = (-100.0, -100.0, -1.0)
+    workspace_hi: tuple[float, float, float] = (100.0, 100.0, 50.0)
+    pos_res_m: float = 0.2
+    vel_res_mps: float = 0.5
+    shot_radius_m: float = 4.0
+    samples_per_primitive: int = 6
+    max_expansions: int = 20000
+    time_budget_s: float = 0.05
+
+
+def penalty(points: FloatArray, regions: list[UnsafeRegion], margin_m: float = 0.0,
+            eps: float = 0.01) -> FloatArray:
+    """Region penalty φ for ``points (M, 3)`` → ``(M,)`` (m²); see the module docstring."""
+    pts = np.atleast_2d(np.asarray(points, dtype=float))
+    lo, hi = boxes_array(regions)
+    if lo.shape[0] == 0:
+        return np.zeros(pts.shape[0])
+    lo, hi = lo - margin_m, hi + margin_m
+    inside = points_in_boxes(pts, lo, hi)
+    exit_d = np.minimum(pts[:, None, :] - lo[None], hi[None] - pts[:, None, :]).min(axis=2)
+    out: FloatArray = np.where(inside, exit_d ** 2 + eps, 0.0).sum(axis=1)
+    return out
+
+
+def _min_time_lb(p: FloatArray, v: FloatArray, goal: FloatArray, cfg: SearchConfig) -> FloatArray:
+    """Admissible time (s) to reach ``goal`` at rest, for ``p, v (M, 3)`` → ``(M,)``.
+
+    Per axis: bang-bang minimum time under ``|a_d| ≤ a_max``, ``|v_d| ≤ v_max`` ending at
+    rest (first braking when moving away or when too fast to stop in time); the max over
+    axes and the straight-line bound ``‖d‖ / v_max`` are both lower bounds.
+    """
+    a, vm = cfg.a_max_mps2, cfg.v_max_mps
+    d = goal[None] - p
+    sgn = np.where(d >= 0.0, 1.0, -1.0)
+    dist, v0 = np.abs(d), np.clip(v * sgn, -vm, vm)
+    stop_d = v0 * np.abs(v0) / (2.0 * a)
+    direct = (v0 >= 0.0) & (stop_d <= dist)
+    # direct: accelerate to the peak speed, then brake to rest at the goal
+    v_peak = np.sqrt(np.maximum((2.0 * a * dist + v0 ** 2) / 2.0, 0.0))
+    t_tri = (2.0 * v_peak - v0) / a
+    t_trap = (2.0 * vm - v0) / a + (dist - (2.0 * vm ** 2 - v0 ** 2) / (2.0 * a)) / vm
+    t_direct = np.where(v_peak <= vm, t_tri, t_trap)
+    # otherwise: brake to rest first, then rest-to-rest over the remaining distance
+    rem = np.abs(dist - stop_d)
+    t_rr = np.where(rem <= vm ** 2 / a, 2.0 * np.sqrt(rem / a), rem / vm + vm / a)
+    t_axis = np.where(direct, t_direct, np.abs(v0) / a + t_rr).max(axis=1)
+    out: FloatArray = np.maximum(t_axis, np.linalg.norm(d, axis=1) / vm)
+    return out
+
+
+class _Checker:
+    """Collision checks of sampled trajectories with clearance balls around start/goal."""
+
+    def __init__(self, regions: list[UnsafeRegion], start: FloatArray, goal: FloatArray,
+                 cfg: SearchConfig) -> None:
+        self.lo, self.hi = boxes_array(regions)
+        self.centers = np.stack([start, goal])
+        self.cfg = cfg
+        self.ws_lo, self.ws_hi = np.array(cfg.workspace_lo), np.array(cfg.workspace_hi)
+
+    def exempt(self, pts: FloatArray) -> FloatArray:
+        """Bool ``(..., )``: points within a clearance ball."""
+        d = np.linalg.norm(pts[..., None, :] - self.centers, axis=-1)
+        out: FloatArray = np.any(d <= self.cfg.clearance_radius_m, axis=-1)
+        return out
+
+    def ok(self, pts: FloatArray) -> FloatArray:
+        """Feasibility of ``(M, S, 3)`` sample chains (``pts[:, 0]`` = common/known-good start)."""
+        m, s, _ = pts.shape
+        ex = self.exempt(pts)
+        good = np.all((pts >= self.ws_lo) & (pts <= self.ws_hi), axis=(1, 2))
+        good &= np.all(ex | (pts[..., 2] >= self.cfg.z_floor_m), axis=1)
+        flat = pts.reshape(-1, 3)
+        near = np.all((self.lo <= flat.max(axis=0)) & (self.hi >= flat.min(axis=0)), axis=1)
+        if not np.any(near):
+            return good
+        lo, hi = self.lo[near], self.hi[near]
+        hit_pt = points_in_boxes(flat, lo, hi).any(axis=1).reshape(m, s)
+        good &= ~np.any(hit_pt & ~ex, axis=1)
+        a, b = pts[:, :-1].reshape(-1, 3), pts[:, 1:].reshape(-1, 3)
+        ea, eb = ex[:, :-1].reshape(-1), ex[:, 1:].reshape(-1)
+        a, b = self._clip_to_balls(a, b, ea, eb)
+        check = ~(ea & eb) & np.repeat(good, s - 1)
+        hit_seg = np.zeros(a.shape[0], dtype=bool)
+        if np.any(check):
+            hit_seg[check] = segments_hit_boxes(a[check], b[check], lo, hi).any(axis=1)
+        good &= ~hit_seg.reshape(m, s - 1).any(axis=1)
+        return good
+
+    def _clip_to_balls(self, a: FloatArray, b: FloatArray, ea: FloatArray,
+                       eb: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Shorten mixed segments (one end exempt) to their part outside the clearance ball."""
+        a, b = a.copy(), b.copy()
+        r = self.cfg.clearance_radius_m
+        for inside_mask, inner, outer in ((ea & ~eb, a, b), (eb & ~ea, b, a)):
+            for i in np.flatnonzero(inside_mask):
+                c = self.centers[np.argmin(np.linalg.norm(self.centers - inner[i], axis=1))]
+                d = inner[i] - outer[i]
+                f0 = outer[i] - c
+                qa, qb, qc = d @ d, 2.0 * f0 @ d, f0 @ f0 - r * r
+                disc = max(qb * qb - 4.0 * qa * qc, 0.0)
+                s = (-qb - np.sqrt(disc)) / (2.0 * qa) if qa > 1e-12 else 0.0
+                inner[i] = outer[i] + float(np.clip(s, 0.0, 1.0)) * d
+        return a, b
+
+
+def _accel_set(cfg: SearchConfig) -> FloatArray:
+    xy = np.linspace(-cfg.a_max_mps2, cfg.a_max_mps2, cfg.xy_levels)
+    z = np.linspace(-cfg.a_max_mps2, cfg.a_max_mps2, cfg.z_levels)
+    return np.array(list(itertools.product(xy, xy, z)), dtype=float)
+
+
+def plan(start_p: FloatArray, start_v: FloatArray, goal_p: FloatArray,
+         regions: list[UnsafeRegion], config: SearchConfig | None = None) -> Path | None:
+    """Search a path from ``(start_p, start_v)`` (each ``(3,)``) to rest at ``goal_p (3,)``.
+
+    Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``.
+    """
+    cfg = config or SearchConfig()
+    t_start = time.perf_counter()
+    p0, v0 = np.asarray(start_p, dtype=float), np.asarray(start_v, dtype=float)
+    goal = np.asarray(goal_p, dtype=float)
+    chk = _Checker(regions, p0, goal, cfg)
+    acc = _accel_set(cfg)
+    acc_cost = (np.sum(acc ** 2, axis=1) + cfg.rho) * cfg.tau_s
+    ts = np.linspace(0.0, cfg.tau_s, cfg.samples_per_primitive + 1)
+
+    def heur(p: FloatArray, v: FloatArray) -> FloatArray:
+        phi = np.where(chk.exempt(p), 0.0, penalty(p, regions, cfg.penalty_margin_m, cfg.penalty_eps))
+        h: FloatArray = cfg.heuristic_weight * (cfg.rho * _min_time_lb(p, v, goal, cfg)
+                                                + cfg.penalty_lambda * phi)
+        return h
+
+    scale = np.concatenate([np.full(3, 1.0 / cfg.pos_res_m), np.full(3, 1.0 / cfg.vel_res_mps)])
+
+    def keys(p: FloatArray, v: FloatArray) -> list[tuple[int, ...]]:
+        grid = np.round(np.concatenate([p, v], axis=-1) * scale).astype(np.int64)
+        return [tuple(row) for row in np.atleast_2d(grid).tolist()]
+
+    nodes_p, nodes_v, nodes_g = [p0], [v0], [0.0]
+    parent: list[int] = [-1]
+    parent_acc: list[FloatArray] = [np.zeros(3)]
+    tie = itertools.count()
+    heap = [(float(heur(p0[None], v0[None])[0]), next(tie), 0)]
+    closed: set[tuple[int, ...]] = set()
+    best_g: dict[tuple[int, ...], float] = {keys(p0, v0)[0]: 0.0}
+    expansions = 0
+    while heap:
+        _, _, idx = heapq.heappop(heap)
+        p, v, g = nodes_p[idx], nodes_v[idx], nodes_g[idx]
+        k = keys(p, v)[0]
+        if k in closed:
+            continue
+        closed.add(k)
+        expansions += 1
+        if expansions > cfg.max_expansions or time.perf_counter() - t_start > cfg.time_budget_s:
+            log.info("search gave up after %d expansions (%.1f ms)", expansions,
+                     1e3 * (time.perf_counter() - t_start))
+            return None
+        if np.linalg.norm(goal - p) <= cfg.shot_radius_m:
+            shot = cubic_to_rest(p, v, goal, cfg.rho, cfg.v_max_mps, cfg.a_max_mps2)
+            if shot is not None:
+                coeffs, dur, cost = shot
+                pts = sample_cubic(coeffs, np.linspace(0.0, dur, max(4, int(dur / 0.1) + 2)))[0]
+                if chk.ok(pts[None])[0]:
+                    chain = _backtrack(idx, parent, parent_acc, nodes_p, nodes_v)
+                    log.debug("search: %d expansions, cost %.2f", expansions, g + cost)
+                    return Path.from_pieces(chain, (coeffs, dur), cfg.tau_s, g + cost, expansions)
+        pos, vel = sample_primitive(p, v, acc, ts)  # (M, S+1, 3)
+        good = np.linalg.norm(vel[:, -1], axis=1) <= cfg.v_max_mps + 1e-9
+        good &= chk.ok(pos)
+        cand = np.flatnonzero(good)
+        if cand.size == 0:
+            continue
+        hs = heur(pos[cand, -1], vel[cand, -1])
+        for j, h, kc in zip(cand, hs, keys(pos[cand, -1], vel[cand, -1]), strict=True):
+            pc, vc = pos[j, -1], vel[j, -1]
+            gc = g + float(acc_cost[j])
+            if kc in closed or gc >= best_g.get(kc, np.inf):
+                continue
+            best_g[kc] = gc
+            nodes_p.append(pc)
+            nodes_v.append(vc)
+            nodes_g.append(gc)
+            parent.append(idx)
+            parent_acc.append(acc[j])
+            heapq.heappush(heap, (gc + float(h), next(tie), len(nodes_p) - 1))
+    log.info("search exhausted the open set after %d expansions", expansions)
+    return None
+
+
+def _backtrack(idx: int, parent: list[int], parent_acc: list[FloatArray],
+               nodes_p: list[FloatArray], nodes_v: list[FloatArray]) -> list[tuple[FloatArray, FloatArray, FloatArray]]:
+    """Chain ``[(p, v, a_applied_from_here)]`` from the root to node ``idx``."""
+    chain: list[tuple[FloatArray, FloatArray, FloatArray]] = []
+    child_acc = None
+    while idx >= 0:
+        a = child_acc if child_acc is not None else np.zeros(3)
+        chain.append((nodes_p[idx], nodes_v[idx], a))
+        child_acc = parent_acc[idx]
+        idx = parent[idx]
+    chain.reverse()
+    return chain

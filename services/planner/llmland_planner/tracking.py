@@ -1,0 +1,188 @@
+"""Tracking depth-image obstacles (:class:`llmland_schemas.depth.Blob`) over frames.
+
+Each frame's blobs are associated with the existing tracks by their horizontal centroid
+distance (world frame, metres) to the tracks' constant-velocity predictions, with an optimal
+assignment (``scipy.optimize.linear_sum_assignment``) gated at ``gate_m``. Matched tracks take
+the new bounds and centroid; their horizontal velocity (m/s, z velocity is 0) is the
+exponentially smoothed centroid difference over time. Unmatched blobs start new tracks
+``"t0"``, ``"t1"``, …
+
+Forgetting: a track that was not matched accumulates *missed time*, and is dropped once that
+exceeds ``forget_after_s``. When the camera looks away, obstacles leave the field of view but
+are still there, so ``update`` accepts ``visible_fn(point_m) -> bool`` (true when a world
+point is inside the current camera frustum and range): a track whose predicted centroid is
+not visible does not accumulate missed time, and is dropped only ``forget_out_of_view_after_s``
+after it was last seen. Without ``visible_fn`` every track is assumed visible.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from llmland_schemas.depth import Blob
+from scipy.optimize import linear_sum_assignment
+
+from llmland_planner.dynamics import FloatArray
+
+log = logging.getLogger(__name__)
+
+VisibleFn = Callable[[FloatArray], bool]
+
+
+@dataclass
+class TrackedObstacle:
+    """An obstacle followed over frames (world frame; metres, seconds, m/s).
+
+    ``centroid_m``, ``lo_m``, ``hi_m`` (3,) are from the last matched blob at ``last_seen_s``
+    (visible-surface bounds, see :class:`~llmland_schemas.depth.Blob`); ``velocity_mps`` (3,)
+    is the horizontal velocity estimate (zero until ``hits >= min_hits_for_velocity``);
+    ``missed_s`` is the time the track should have been seen but was not; ``meta`` is free
+    for callers (e.g. a semantic spec attached with :meth:`ObstacleTracker.match`).
+    """
+
+    track_id: str
+    centroid_m: FloatArray
+    lo_m: FloatArray
+    hi_m: FloatArray
+    velocity_mps: FloatArray
+    first_seen_s: float
+    last_seen_s: float
+    hits: int = 1
+    missed_s: float = 0.0
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+class ObstacleTracker:
+    """Nearest-neighbour multi-obstacle tracker with constant-velocity prediction.
+
+    ``gate_m``: largest horizontal distance (m) between a prediction and a blob to associate
+    them. ``forget_after_s``: missed time (s) after which a visible track is dropped.
+    ``velocity_alpha``: smoothing weight of the newest velocity sample (0..1].
+    ``min_hits_for_velocity``: observations before a velocity is reported (and used to predict).
+    ``forget_out_of_view_after_s``: time since last seen (s) after which any track is dropped.
+    """
+
+    def __init__(
+        self,
+        gate_m: float = 1.5,
+        forget_after_s: float = 2.0,
+        velocity_alpha: float = 0.5,
+        min_hits_for_velocity: int = 2,
+        forget_out_of_view_after_s: float = 30.0,
+    ) -> None:
+        if not 0.0 < velocity_alpha <= 1.0:
+            raise ValueError(f"velocity_alpha must be in (0, 1], got {velocity_alpha}")
+        self.gate_m = gate_m
+        self.forget_after_s = forget_after_s
+        self.velocity_alpha = velocity_alpha
+        self.min_hits_for_velocity = max(2, min_hits_for_velocity)
+        self.forget_out_of_view_after_s = forget_out_of_view_after_s
+        self._tracks: list[TrackedObstacle] = []
+        self._raw_velocity: dict[str, FloatArray] = {}
+        self._next_id = 0
+        self._last_update_s: float | None = None
+
+    def update(
+        self, blobs: Sequence[Blob], stamp_s: float, visible_fn: VisibleFn | None = None
+    ) -> list[TrackedObstacle]:
+        """Associate one frame's blobs (taken at ``stamp_s``, s) and return the live tracks."""
+        dt_frame = 0.0 if self._last_update_s is None else max(0.0, stamp_s - self._last_update_s)
+        self._last_update_s = stamp_s
+        matched_tracks: set[int] = set()
+        matched_blobs: set[int] = set()
+        if self._tracks and blobs:
+            pred = np.array([self.predict(t, stamp_s)[:2] for t in self._tracks])  # (T, 2)
+            obs = np.array([b.centroid_m[:2] for b in blobs], dtype=np.float64)  # (B, 2)
+            cost = np.linalg.norm(pred[:, None, :] - obs[None, :, :], axis=-1)
+            gated = np.where(cost <= self.gate_m, cost, 1e6)
+            for ti, bi in zip(*linear_sum_assignment(gated), strict=True):
+                if cost[ti, bi] <= self.gate_m:
+                    self._correct(self._tracks[ti], blobs[bi], stamp_s)
+                    matched_tracks.add(int(ti))
+                    matched_blobs.add(int(bi))
+        kept: list[TrackedObstacle] = []
+        for i, track in enumerate(self._tracks):
+            if i not in matched_tracks:
+                if visible_fn is None or visible_fn(self.predict(track, stamp_s)):
+                    track.missed_s += dt_frame
+                too_long = stamp_s - track.last_seen_s > self.forget_out_of_view_after_s
+                if track.missed_s > self.forget_after_s or too_long:
+                    log.debug("forgetting track %s (missed %.2f s)", track.track_id, track.missed_s)
+                    self._raw_velocity.pop(track.track_id, None)
+                    continue
+            kept.append(track)
+        for bi, blob in enumerate(blobs):
+            if bi not in matched_blobs:
+                kept.append(self._new_track(blob, stamp_s))
+        self._tracks = kept
+        return list(self._tracks)
+
+    def _new_track(self, blob: Blob, stamp_s: float) -> TrackedObstacle:
+        track = TrackedObstacle(
+            track_id=f"t{self._next_id}",
+            centroid_m=np.array(blob.centroid_m, dtype=np.float64),
+            lo_m=np.array(blob.lo_m, dtype=np.float64),
+            hi_m=np.array(blob.hi_m, dtype=np.float64),
+            velocity_mps=np.zeros(3),
+            first_seen_s=stamp_s,
+            last_seen_s=stamp_s,
+        )
+        self._next_id += 1
+        return track
+
+    def _correct(self, track: TrackedObstacle, blob: Blob, stamp_s: float) -> None:
+        """Fold a matched blob into ``track``: smoothed horizontal velocity, latest bounds."""
+        centroid = np.array(blob.centroid_m, dtype=np.float64)
+        dt = stamp_s - track.last_seen_s
+        if dt > 1e-6:
+            sample = np.zeros(3)
+            sample[:2] = (centroid[:2] - track.centroid_m[:2]) / dt
+            prev = self._raw_velocity.get(track.track_id)
+            a = self.velocity_alpha
+            self._raw_velocity[track.track_id] = sample if prev is None else a * sample + (1.0 - a) * prev
+        track.hits += 1
+        track.centroid_m = centroid
+        track.lo_m = np.array(blob.lo_m, dtype=np.float64)
+        track.hi_m = np.array(blob.hi_m, dtype=np.float64)
+        track.last_seen_s = max(track.last_seen_s, stamp_s)
+        track.missed_s = 0.0
+        if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
+            track.velocity_mps = self._raw_velocity[track.track_id].copy()
+
+    @staticmethod
+    def predict(track: TrackedObstacle, t_s: float) -> FloatArray:
+        """(3,) centroid (m) of ``track`` at time ``t_s`` under constant velocity."""
+        return np.asarray(track.centroid_m + track.velocity_mps * (t_s - track.last_seen_s), dtype=np.float64)
+
+    def tracks(self, at_s: float | None = None) -> list[TrackedObstacle]:
+        """Copies of the live tracks; with ``at_s`` (s), centroid and bounds are moved to that time."""
+        out = []
+        for t in self._tracks:
+            shift = np.zeros(3) if at_s is None else t.velocity_mps * (at_s - t.last_seen_s)
+            out.append(
+                replace(
+                    t,
+                    centroid_m=t.centroid_m + shift,
+                    lo_m=t.lo_m + shift,
+                    hi_m=t.hi_m + shift,
+                    velocity_mps=t.velocity_mps.copy(),
+                    meta=dict(t.meta),
+                )
+            )
+        return out
+
+    def match(self, position_m: Sequence[float] | FloatArray, max_dist_m: float) -> TrackedObstacle | None:
+        """The live track (not a copy: ``meta`` may be edited) horizontally nearest ``position_m``.
+
+        Distances are to the last-seen centroids; ``None`` when none is within ``max_dist_m``.
+        """
+        if not self._tracks:
+            return None
+        p = np.asarray(position_m, dtype=np.float64)[:2]
+        dist = [float(np.linalg.norm(t.centroid_m[:2] - p)) for t in self._tracks]
+        i = int(np.argmin(dist))
+        return self._tracks[i] if dist[i] <= max_dist_m else None

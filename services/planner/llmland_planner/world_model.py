@@ -1,0 +1,140 @@
+"""What the planner believes is around it: tracked depth obstacles plus their semantics.
+
+Geometry comes from the depth image only (the planner is never told what an obstacle is by
+the simulator). Semantics come from ``reasoner/spec`` messages, attached to tracks by
+position. Each spec is applied at sim time ``frame stamp + measured latency`` (DESIGN §4),
+so a slower reasoner delivers its spec later and the drone pays for it.
+
+Unsafe regions (DESIGN §6):
+
+- ``baseline``: every track gets one fixed margin; tracks that the tracker sees moving are
+  swept along their measured velocity (same geometry as the semantic methods).
+- semantic methods (``llm``, ``llm-land``): the spec's ``buffer_m`` and ``z_min``; dynamic
+  classes (or measured motion) are swept over the horizon. A track with no spec yet, or
+  whose spec is older than ``spec_stale_s``, gets the most conservative class.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from llmland_schemas import SafetySpec, SafetySpecMessage
+from llmland_schemas.depth import blobs_from_frame
+from llmland_schemas.frames import CameraFrame
+
+from .dynamics import FloatArray
+from .regions import UnsafeRegion, from_obstacle
+from .settings import PlannerSettings
+from .tracking import ObstacleTracker, TrackedObstacle
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class PendingSpec:
+    """A spec waiting for its sim-time release."""
+
+    apply_at_s: float
+    position_m: FloatArray
+    spec: SafetySpec
+
+
+def frustum_fn(frame: CameraFrame, max_range_m: float):  # type: ignore[no-untyped-def]
+    """``visible(point_m) -> bool`` for the frame's camera (in image and within range)."""
+    t_cw = np.linalg.inv(frame.T_world_camera)
+    k = frame.header.intrinsics
+
+    def visible(p: FloatArray) -> bool:
+        q = t_cw[:3, :3] @ np.asarray(p, dtype=float) + t_cw[:3, 3]
+        if q[2] <= 0.1 or q[2] > max_range_m:
+            return False
+        u, v = k.fx * q[0] / q[2] + k.cx, k.fy * q[1] / q[2] + k.cy
+        return bool(0 <= u < k.width and 0 <= v < k.height)
+
+    return visible
+
+
+class WorldModel:
+    """Tracks + semantic specs → unsafe regions for one episode."""
+
+    def __init__(self, settings: PlannerSettings, method: str) -> None:
+        self.settings = settings
+        self.method = method
+        self.tracker = ObstacleTracker(gate_m=1.5, forget_after_s=2.0)
+        self.pending: list[PendingSpec] = []
+        self.specs_applied = 0
+        self.spec_latencies_ms: list[float] = []
+        self.version = 0  # bumps when tracks or specs change
+
+    @property
+    def semantic(self) -> bool:
+        return self.method in ("llm", "llm-land")
+
+    # ------------------------------------------------------------------ inputs
+    def on_frame(self, frame: CameraFrame) -> None:
+        if frame.depth_m is None:
+            return
+        blobs = blobs_from_frame(frame, stride=self.settings.blob_stride, max_range_m=self.settings.max_range_m)
+        self.tracker.update(blobs, frame.header.stamp, visible_fn=frustum_fn(frame, self.settings.max_range_m))
+        self.version += 1
+
+    def on_spec(self, msg: SafetySpecMessage) -> None:
+        """Queue the per-object specs for release at ``stamp + latency``."""
+        if not self.semantic:
+            return
+        release = msg.stamp + msg.latency_ms / 1e3
+        for obj in msg.objects:
+            self.pending.append(PendingSpec(release, np.asarray(obj.centroid_m, dtype=float), obj.spec))
+        self.spec_latencies_ms.append(msg.latency_ms)
+
+    def release_specs(self, t_s: float) -> None:
+        """Attach every spec whose release time has come to the track at its position."""
+        due = [s for s in self.pending if s.apply_at_s <= t_s]
+        if not due:
+            return
+        self.pending = [s for s in self.pending if s.apply_at_s > t_s]
+        for s in due:
+            track = self.tracker.match(s.position_m, self.settings.spec_match_m)
+            if track is None:
+                continue
+            track.meta["spec"] = s.spec
+            track.meta["spec_t"] = t_s
+            self.specs_applied += 1
+            self.version += 1
+
+    # ------------------------------------------------------------------ output
+    def spec_for(self, track: TrackedObstacle, t_s: float) -> SafetySpec:
+        spec = track.meta.get("spec")
+        if spec is None or t_s - float(track.meta.get("spec_t", -1e9)) > self.settings.spec_stale_s:
+            return SafetySpec.conservative()
+        return spec  # type: ignore[no-any-return]
+
+    def regions(self, t_s: float) -> list[UnsafeRegion]:
+        """Unsafe regions at sim time ``t_s`` (dynamic ones swept over the horizon)."""
+        self.release_specs(t_s)
+        s = self.settings
+        out: list[UnsafeRegion] = []
+        for tr in self.tracker.tracks(at_s=t_s):
+            centre = 0.5 * (tr.lo_m + tr.hi_m)
+            radius = float(0.5 * np.hypot(tr.hi_m[0] - tr.lo_m[0], tr.hi_m[1] - tr.lo_m[1]))
+            height = float(tr.hi_m[2] - tr.lo_m[2])
+            vel = tr.velocity_mps[:2]
+            moving = float(np.linalg.norm(vel)) > s.moving_speed_mps
+            if self.semantic:
+                spec = self.spec_for(tr, t_s)
+                buffer_m, z_min, label = spec.buffer_m, spec.z_min, spec.label
+                dynamic = spec.is_dynamic or moving
+            else:
+                buffer_m, z_min, label, dynamic = s.baseline_margin_m, 0.0, "obstacle", moving
+            out += from_obstacle(
+                centre[:2], radius, height, buffer_m, z_min,
+                velocity_xy=vel if moving else None,
+                horizon_s=s.sweep_horizon_s if dynamic and moving else 0.0,
+                obj_id=tr.track_id, label=label, z_ground_m=float(tr.lo_m[2]),
+            )
+            if dynamic and not moving:
+                for r in out[-1:]:
+                    r.is_dynamic = True
+        return out

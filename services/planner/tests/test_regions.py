@@ -1,0 +1,64 @@
+"""Tests of unsafe-region boxes: construction, point queries, segment tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from llmland_planner.regions import UnsafeRegion, from_obstacle, segment_hits
+
+
+def test_static_obstacle_box() -> None:
+    (r,) = from_obstacle([1.0, 2.0], radius_m=0.3, height_m=1.7, buffer_m=1.0, z_min=3.0,
+                         obj_id="p1", label="person")
+    np.testing.assert_allclose(r.lo, [-0.3, 0.7, -1.0])
+    np.testing.assert_allclose(r.hi, [2.3, 3.3, 3.0])
+    assert not r.is_dynamic and r.obj_id == "p1" and r.label == "person"
+    (tall,) = from_obstacle([0, 0], 0.5, 5.0, 0.5, 3.0)
+    assert tall.hi[2] == pytest.approx(5.5)
+
+
+def test_dynamic_obstacle_sweep() -> None:
+    boxes = from_obstacle([0.0, 0.0], 0.5, 1.0, 0.5, 2.0, velocity_xy=[1.0, 1.0],
+                          horizon_s=1.0, dt_s=0.25)
+    assert len(boxes) == 4 and all(b.is_dynamic for b in boxes)
+    np.testing.assert_allclose(boxes[0].lo[:2], [-1.0, -1.0])
+    np.testing.assert_allclose(boxes[-1].hi[:2], [2.0, 2.0])
+    # slices are less conservative than the single swept bounding box
+    corner = np.array([1.8, -0.8, 1.0])
+    assert not any(b.contains(corner) for b in boxes)
+    for t in np.linspace(0, 1, 9):  # the obstacle centre is always covered
+        assert any(b.contains([t, t, 0.5]) for b in boxes)
+
+
+def test_contains_and_signed_distance() -> None:
+    r = UnsafeRegion([0, 0, 0], [2, 2, 2])
+    assert r.contains([1, 1, 1]) and r.contains([2, 2, 2]) and not r.contains([2.1, 1, 1])
+    assert r.contains([2.1, 1, 1], margin_m=0.2)
+    assert r.signed_distance([1, 1, 1]) == pytest.approx(-1.0)
+    assert r.signed_distance([1.5, 1, 1]) == pytest.approx(-0.5)
+    assert r.signed_distance([3, 1, 1]) == pytest.approx(1.0)
+    assert r.signed_distance([3, 3, 1]) == pytest.approx(np.sqrt(2))
+    with pytest.raises(ValueError):
+        UnsafeRegion([1, 0, 0], [0, 1, 1])
+
+
+def test_segment_hits() -> None:
+    r = UnsafeRegion([0, 0, 0], [1, 1, 1])
+    assert segment_hits([-1, 0.5, 0.5], [2, 0.5, 0.5], r)  # through
+    assert segment_hits([0.5, 0.5, 0.5], [0.6, 0.6, 0.6], r)  # inside
+    assert not segment_hits([-1, 2, 0.5], [2, 2, 0.5], r)  # parallel, outside slab
+    assert not segment_hits([-1, 0.5, 0.5], [-0.1, 0.5, 0.5], r)  # stops short
+    assert segment_hits([-1, -1, 0.5], [2, 2, 0.5], r)  # diagonal
+    assert not segment_hits([-0.5, 0.6, 0.5], [0.4, 1.5, 0.5], r)  # misses the corner
+
+
+def test_segment_hits_agrees_with_dense_sampling() -> None:
+    rng = np.random.default_rng(1)
+    r = UnsafeRegion([0, 0, 0], [1, 1, 1])
+    for _ in range(200):
+        a, b = rng.uniform(-1, 2, 3), rng.uniform(-1, 2, 3)
+        pts = a + np.linspace(0, 1, 2001)[:, None] * (b - a)
+        sampled = bool(np.any(np.all((pts >= r.lo) & (pts <= r.hi), axis=1)))
+        if sampled:
+            assert segment_hits(a, b, r)

@@ -1,0 +1,118 @@
+"""Tests of the kinodynamic A* search, its penalty and path resampling."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from llmland_planner.regions import UnsafeRegion, from_obstacle, segments_hit_boxes
+from llmland_planner.search import Path, SearchConfig, penalty, plan, resample
+
+START = np.array([0.0, 0.0, 2.0])
+GOAL = np.array([8.0, 0.0, 1.5])
+CFG = SearchConfig(time_budget_s=0.2, workspace_lo=(-3.0, -6.0, -1.0), workspace_hi=(11.0, 6.0, 6.0))
+
+
+def _outside_clearance(path: Path, cfg: SearchConfig) -> np.ndarray:
+    d0 = np.linalg.norm(path.p - path.p[0], axis=1)
+    d1 = np.linalg.norm(path.p - path.p[-1], axis=1)
+    mask: np.ndarray = (d0 > cfg.clearance_radius_m) & (d1 > cfg.clearance_radius_m)
+    return mask
+
+
+def _assert_clear(path: Path, regions: list[UnsafeRegion], cfg: SearchConfig) -> None:
+    far = _outside_clearance(path, cfg)
+    for r in regions:
+        inside = np.array([r.contains(p) for p in path.p])
+        assert not np.any(inside & far), f"path enters {r.obj_id}"
+    lo, hi = np.stack([r.lo for r in regions]), np.stack([r.hi for r in regions])
+    both_far = far[:-1] & far[1:]
+    hits = segments_hit_boxes(path.p[:-1][both_far], path.p[1:][both_far], lo, hi)
+    assert not np.any(hits)
+    assert np.all(path.p[far, 2] >= cfg.z_floor_m - 1e-9)
+    assert np.all(np.linalg.norm(path.v, axis=1) <= cfg.v_max_mps + 1e-6)
+
+
+def test_free_space_reaches_goal_at_rest() -> None:
+    path = plan(START, np.zeros(3), GOAL, [], CFG)
+    assert path is not None
+    np.testing.assert_allclose(path.p[0], START)
+    np.testing.assert_allclose(path.p[-1], GOAL, atol=1e-9)
+    np.testing.assert_allclose(path.v[-1], 0.0, atol=1e-9)
+    assert path.duration_s >= np.linalg.norm(GOAL - START) / CFG.v_max_mps
+
+
+def test_blocked_wall_gives_no_path() -> None:
+    wall = [UnsafeRegion([4.0, -10.0, -2.0], [4.5, 10.0, 10.0], obj_id="wall")]
+    assert plan(START, np.zeros(3), GOAL, wall, CFG) is None
+
+
+def test_gap_in_wall_is_found_and_regions_avoided() -> None:
+    wall = [UnsafeRegion([4.0, -10.0, -2.0], [4.5, 1.0, 10.0], obj_id="w1"),
+            UnsafeRegion([4.0, 2.0, -2.0], [4.5, 10.0, 10.0], obj_id="w2")]
+    path = plan(START, np.zeros(3), GOAL, wall, CFG)
+    assert path is not None
+    crossing = path.p[np.argmin(np.abs(path.p[:, 0] - 4.25))]
+    assert 1.0 < crossing[1] < 2.0
+    _assert_clear(path, wall, CFG)
+
+
+def test_obstacles_avoided() -> None:
+    regions = from_obstacle([3.0, 0.5], 0.5, 1.8, 0.5, 3.0, obj_id="a") + from_obstacle(
+        [6.0, -1.0], 0.8, 1.8, 0.5, 3.0, obj_id="b")
+    path = plan(START, np.zeros(3), GOAL, regions, CFG)
+    assert path is not None
+    _assert_clear(path, regions, CFG)
+
+
+def test_start_inside_inflated_region_can_leave() -> None:
+    regions = from_obstacle([0.3, 0.0], 0.0, 1.8, 0.4, 3.0, obj_id="near")  # start within 0.2 m
+    assert regions[0].contains(START)
+    path = plan(START, np.zeros(3), GOAL, regions, CFG)
+    assert path is not None
+    _assert_clear(path, regions, CFG)
+
+
+def test_never_crosses_region_beyond_clearance() -> None:
+    big = [UnsafeRegion([-2.0, -2.0, -1.0], [2.0, 2.0, 5.0], obj_id="big")]  # start deep inside
+    assert plan(START, np.zeros(3), GOAL, big, CFG) is None
+
+
+def test_penalty_formula() -> None:
+    box = [UnsafeRegion([0.0, 0.0, 0.0], [2.0, 2.0, 2.0])]
+    eps = 0.01
+    pts = np.array([[0.5, 1.0, 1.0], [1.0, 1.0, 1.8], [3.0, 1.0, 1.0], [1.0, 1.0, 1.0]])
+    np.testing.assert_allclose(penalty(pts, box, 0.0, eps), [0.25 + eps, 0.04 + eps, 0.0, 1.0 + eps])
+    # with a margin the box grows: (2.2, 1, 1) is 0.3 m inside the grown face x = 2.5
+    np.testing.assert_allclose(penalty(np.array([[2.2, 1.0, 1.0]]), box, 0.5, eps), [0.09 + eps])
+    two = box + [UnsafeRegion([1.5, 0.0, 0.0], [4.0, 2.0, 2.0])]
+    np.testing.assert_allclose(penalty(np.array([[1.8, 1.0, 1.0]]), two, 0.0, eps),
+                               [0.04 + eps + 0.09 + eps])
+
+
+def test_resample_is_exact_and_holds_the_end() -> None:
+    path = plan(START, np.zeros(3), GOAL, [], CFG)
+    assert path is not None
+    for i in range(0, path.t.size, 7):
+        at = resample(path, 0.05, t_start=float(path.t[i]), count=1)
+        np.testing.assert_allclose(at.p[0], path.p[i], atol=1e-9)
+        np.testing.assert_allclose(at.v[0], path.v[i], atol=1e-9)
+    # Hermite interpolation reproduces the quadratic/cubic pieces between samples
+    half = resample(path, 0.05, t_start=0.5 * float(path.t[1]), count=1)
+    a0 = (path.v[1] - path.v[0]) / path.t[1]
+    t = 0.5 * path.t[1]
+    np.testing.assert_allclose(half.p[0], path.p[0] + path.v[0] * t + 0.5 * a0 * t * t, atol=1e-9)
+    win = resample(path, 0.05, t_start=path.t[-1] - 0.1, count=21)
+    assert win.p.shape == (21, 3)
+    np.testing.assert_allclose(win.p[5:], np.tile(GOAL, (16, 1)), atol=1e-9)
+    np.testing.assert_allclose(win.v[3:], 0.0, atol=1e-9)
+    mid = resample(path, 0.01)
+    step_len = np.linalg.norm(np.diff(mid.p, axis=0), axis=1)
+    assert np.max(step_len) <= CFG.v_max_mps * 0.01 + 1e-6
+
+
+@pytest.mark.parametrize("v0", [[1.5, 0.0, 0.0], [-1.0, 1.0, 0.0]])
+def test_moving_start(v0: list[float]) -> None:
+    path = plan(START, np.array(v0), GOAL, [], CFG)
+    assert path is not None
+    np.testing.assert_allclose(path.v[0], v0)

@@ -1,0 +1,106 @@
+"""ObstacleTracker: velocity estimates, identity through crossings, forgetting, out-of-view tracks."""
+
+from __future__ import annotations
+
+import numpy as np
+from llmland_planner.tracking import ObstacleTracker
+from llmland_schemas.depth import Blob
+
+DT_S = 0.2  # 5 Hz
+
+
+def blob(x: float, y: float, blob_id: int = 0, half_m: float = 0.3, height_m: float = 1.7) -> Blob:
+    """Blob of a person-sized obstacle standing at (x, y)."""
+    lo = np.array([x - half_m, y - half_m, 0.0])
+    hi = np.array([x + half_m, y + half_m, height_m])
+    return Blob(
+        blob_id=blob_id,
+        centroid_m=(lo + hi) / 2,
+        mean_m=(lo + hi) / 2,
+        lo_m=lo,
+        hi_m=hi,
+        size_m=hi - lo,
+        n_points=100,
+        bbox_px=(0, 0, 10, 10),
+        footprint_radius_m=half_m * np.sqrt(2),
+    )
+
+
+def test_velocity_of_moving_blob() -> None:
+    rng = np.random.default_rng(0)
+    tracker = ObstacleTracker()
+    tracks = []
+    for k in range(5):
+        noise = rng.normal(0.0, 0.01, size=2)
+        tracks = tracker.update([blob(2.0 + 1.0 * k * DT_S + noise[0], -1.0 + noise[1])], k * DT_S)
+        if k == 0:
+            assert np.allclose(tracks[0].velocity_mps, 0.0)  # one hit: no velocity yet
+    assert len(tracks) == 1
+    t = tracks[0]
+    assert t.track_id == "t0" and t.hits == 5
+    assert np.linalg.norm(t.velocity_mps - [1.0, 0.0, 0.0]) < 0.15
+    assert t.velocity_mps[2] == 0.0
+    assert abs(tracker.predict(t, t.last_seen_s + 1.0)[0] - (t.centroid_m[0] + t.velocity_mps[0])) < 1e-9
+    (ahead,) = tracker.tracks(at_s=t.last_seen_s + 2.0)
+    assert np.allclose(ahead.lo_m - t.lo_m, 2.0 * t.velocity_mps)
+
+
+def test_crossing_objects_keep_ids() -> None:
+    """Opposite lanes 0.8 m apart at 2.5 m/s each: they pass within the gate of each other."""
+    tracker = ObstacleTracker(gate_m=1.5)
+    for k in range(20):
+        t = k * DT_S
+        a, b = blob(-5.0 + 2.5 * t, 0.4), blob(5.0 - 2.5 * t, -0.4)
+        blobs = [a, b] if k % 2 else [b, a]  # blob order in the frame must not matter
+        tracks = {tr.track_id: tr for tr in tracker.update(blobs, t)}
+        assert set(tracks) == {"t0", "t1"}
+    first = tracker.tracks()[0]
+    assert first.track_id == "t0"
+    a_id = "t0" if first.centroid_m[1] > 0 else "t1"
+    b_id = "t1" if a_id == "t0" else "t0"
+    assert tracks[a_id].centroid_m[1] > 0 and tracks[a_id].velocity_mps[0] > 2.0
+    assert tracks[b_id].centroid_m[1] < 0 and tracks[b_id].velocity_mps[0] < -2.0
+
+
+def test_gate_starts_new_track() -> None:
+    tracker = ObstacleTracker(gate_m=1.5)
+    tracker.update([blob(0.0, 0.0)], 0.0)
+    tracks = tracker.update([blob(3.0, 0.0)], DT_S)
+    assert sorted(t.track_id for t in tracks) == ["t0", "t1"]
+
+
+def test_unseen_tracks_are_forgotten() -> None:
+    tracker = ObstacleTracker(forget_after_s=2.0)
+    tracker.update([blob(0.0, 0.0)], 0.0)
+    t = 0.0
+    for _ in range(9):  # 1.8 s unseen: still kept
+        t += DT_S
+        assert len(tracker.update([], t)) == 1
+    assert tracker.update([], t + 2 * DT_S) == []  # 2.2 s
+
+
+def test_out_of_view_tracks_are_kept() -> None:
+    tracker = ObstacleTracker(forget_after_s=2.0, forget_out_of_view_after_s=20.0)
+    tracker.update([blob(5.0, 0.0), blob(-5.0, 0.0, blob_id=1)], 0.0)
+
+    def in_view(p: np.ndarray) -> bool:
+        return bool(p[0] > 0.0)  # camera looks toward +x
+
+    t = 0.0
+    for _ in range(50):  # 10 s: the one in view is forgotten, the one behind is kept
+        t += DT_S
+        tracks = tracker.update([], t, visible_fn=in_view)
+    assert [tr.centroid_m[0] for tr in tracks] == [-5.0]
+    assert tracks[0].missed_s == 0.0
+    assert len(tracker.update([], 20.5, visible_fn=in_view)) == 0  # out of view for too long
+
+
+def test_match_attaches_meta() -> None:
+    tracker = ObstacleTracker()
+    tracker.update([blob(1.0, 1.0), blob(4.0, 0.0, blob_id=1)], 0.0)
+    assert tracker.match((9.0, 9.0, 0.0), max_dist_m=1.0) is None
+    found = tracker.match((3.8, 0.3, 1.0), max_dist_m=1.0)
+    assert found is not None and found.track_id == "t1"
+    found.meta["cls"] = "person"
+    tracks = tracker.update([blob(1.0, 1.0), blob(4.1, 0.0, blob_id=1)], DT_S)
+    assert {t.track_id: t.meta.get("cls") for t in tracks} == {"t0": None, "t1": "person"}

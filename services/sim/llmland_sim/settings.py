@@ -1,0 +1,46 @@
+"""Simulator settings, read once from ``LLMLAND_SIM_*`` environment variables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class SimSettings(BaseSettings):
+    """Everything the sim service reads. Rates in Hz, durations in seconds."""
+
+    model_config = SettingsConfigDict(env_prefix="LLMLAND_SIM_", extra="ignore")
+
+    drone_id: str = "d0"
+    physics_hz: int = 300
+    ctrl_hz: int = 50
+    camera_hz: float = 5.0  # 0 disables the camera
+    camera_width: int = 384
+    camera_height: int = 384
+    renderer: Literal["auto", "tiny", "egl"] = "auto"
+    truth_hz: float = 10.0
+    gui: bool = False
+    #: Lockstep: longest wall time to wait for the command echoing a tick's seq.
+    lockstep_timeout_s: float = 0.25
+    #: Hold the last command this long (sim time) before the vehicle-side failsafe.
+    command_hold_s: float = 0.2
+    #: Record every episode to this .rrd (may contain ``{episode_id}``) ...
+    rrd: Path | None = None
+    #: ... or stream live to a Rerun viewer, e.g. ``rerun+http://127.0.0.1:9876/proxy``.
+    rerun_connect: str | None = None
+
+    @model_validator(mode="after")
+    def _check_rates(self) -> SimSettings:
+        if self.physics_hz < 240:
+            raise ValueError("physics_hz must be >= 240")
+        if self.ctrl_hz <= 0 or self.physics_hz % self.ctrl_hz:
+            raise ValueError(f"physics_hz ({self.physics_hz}) must be an integer multiple of ctrl_hz ({self.ctrl_hz})")
+        return self
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control tick."""
+        return self.physics_hz // self.ctrl_hz

@@ -1,0 +1,285 @@
+"""One pybullet episode: world, vehicle, camera, scoring — no bus in here.
+
+:class:`Simulation` is driven one control tick at a time by the service loop
+(:mod:`llmland_sim.main`) or directly by tests and benchmarks.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+from llmland_schemas import (
+    CameraFrameHeader,
+    CameraIntrinsics,
+    ControlCommand,
+    EpisodeResult,
+    GroundTruth,
+    MissionGoal,
+    TruthObject,
+    VehicleState,
+    encode_frame,
+)
+
+from .camera import RgbdCamera
+from .scoring import EpisodeScore
+from .settings import SimSettings
+from .vehicle import DEFAULT_PARAMS, Quadrotor, QuadParams, ReferencePositionController
+from .world import World, build_world
+
+log = logging.getLogger(__name__)
+
+#: Touchdown: this close to the ground (m, vehicle centre) and this slow (m/s) ...
+TOUCHDOWN_HEIGHT_M = 0.15
+TOUCHDOWN_SPEED_MPS = 0.35
+#: ... for this long (s) counts as landed.
+TOUCHDOWN_DWELL_S = 0.3
+#: Hitting the ground faster than this (m/s) is a crash.
+CRASH_SPEED_MPS = 2.5
+
+
+@dataclass
+class TickInfo:
+    t_s: float
+    seq: int
+    used_failsafe: bool
+
+
+class Simulation:
+    """A headless (or GUI) pybullet world with one quadrotor."""
+
+    def __init__(self, settings: SimSettings, params: QuadParams = DEFAULT_PARAMS) -> None:
+        self.settings = settings
+        self.params = params
+        self.client = p.connect(p.GUI if settings.gui else p.DIRECT)
+        self.world: World | None = None
+        self.quad: Quadrotor | None = None
+        self.camera: RgbdCamera | None = None
+        self.mission: MissionGoal | None = None
+        self.score: EpisodeScore | None = None
+        self._failsafe = ReferencePositionController(params)
+        self._hold_target: np.ndarray | None = None
+        self._last_cmd: ControlCommand | None = None
+        self._last_cmd_t = 0.0
+        self.t_s = 0.0
+        self.seq = 0
+        self.deadline_misses = 0
+        self.commands_missing = 0
+        self._landed_since: float | None = None
+        self._wall_start = 0.0
+        self.done = False
+        self._ended_by_stop = False
+
+    # ------------------------------------------------------------------ episode
+    def reset(self, mission: MissionGoal) -> None:
+        """Build the mission's world from its seed and place the vehicle at the start."""
+        s = self.settings
+        p.resetSimulation(physicsClientId=self.client)
+        p.setGravity(0, 0, -9.81, physicsClientId=self.client)
+        p.setTimeStep(1.0 / s.physics_hz, physicsClientId=self.client)
+        self.world = build_world(self.client, mission.world, mission.seed, n_pedestrians=mission.n_pedestrians)
+        start = np.asarray(mission.start_m if mission.start_m is not None else self.world.start_m, dtype=float)
+        if mission.target_m is not None:
+            self.world.target_m = np.asarray(mission.target_m, dtype=float)
+        self.quad_start_m = start
+        self.quad = Quadrotor(self.client, self.params, start_pos=tuple(start), start_yaw=0.0)
+        self.quad.set_command(np.zeros(3), self.params.hover_thrust_n)
+        if s.camera_hz > 0:
+            self.camera = RgbdCamera(self.client, width=s.camera_width, height=s.camera_height, renderer=s.renderer)
+        self.mission = mission
+        self.score = EpisodeScore(target_m=np.asarray(self.world.target_m, dtype=float))
+        self._classes = {o.obj_id: o.cls for o in self.world.objects}
+        self._hold_target = start.copy()
+        self._last_cmd = None
+        self._last_cmd_t = 0.0
+        self.t_s = 0.0
+        self.seq = 0
+        self.deadline_misses = 0
+        self.commands_missing = 0
+        self._landed_since = None
+        self._wall_start = time.perf_counter()
+        self.done = False
+        self._ended_by_stop = False
+        log.info("episode %s: world=%s seed=%d start=%s target=%s", mission.episode_id, mission.world,
+                 mission.seed, np.round(start, 2).tolist(), np.round(self.world.target_m, 2).tolist())
+
+    def stop(self) -> None:
+        """End the episode early (a stop command)."""
+        self.done = True
+        self._ended_by_stop = True
+
+    # ------------------------------------------------------------------ stepping
+    def apply_command(self, cmd: ControlCommand | None) -> bool:
+        """Set the vehicle input for the next tick; returns True if the failsafe flew it.
+
+        A missing command holds the previous one for ``command_hold_s``; after that the
+        vehicle-side failsafe holds position where commands were lost.
+        """
+        assert self.quad is not None
+        if cmd is not None:
+            self._last_cmd, self._last_cmd_t = cmd, self.t_s
+            self._hold_target = None
+            self.quad.set_command(np.asarray(cmd.body_rates_rps), cmd.thrust_n)
+            return False
+        self.commands_missing += 1
+        if self._last_cmd is not None and self.t_s - self._last_cmd_t <= self.settings.command_hold_s:
+            return False
+        st = self.quad.state()
+        if self._hold_target is None:
+            self._hold_target = st.pos_m.copy()
+        rates, thrust = self._failsafe.update(st.pos_m, st.vel_mps, st.quat_xyzw, self._hold_target)
+        self.quad.set_command(rates, thrust)
+        return True
+
+    def step(self) -> None:
+        """Advance one control tick (``substeps`` physics steps), then score it."""
+        assert self.quad is not None and self.world is not None and self.score is not None
+        dt = 1.0 / self.settings.physics_hz
+        for _ in range(self.settings.substeps):
+            self.world.step_actors(dt)
+            self.quad.apply_forces(dt)
+            p.stepSimulation(physicsClientId=self.client)
+            self.t_s += dt
+        self.seq += 1
+        self._score_tick()
+        if self.mission is not None and self.t_s >= self.mission.timeout_s:
+            self.done = True
+
+    def _score_tick(self) -> None:
+        assert self.quad is not None and self.world is not None and self.score is not None
+        st = self.quad.state()
+        people = {o.obj_id: (self._base_of(o), float(o.size_m[2])) for o in self.world.people()}
+        self.score.observe_people(st.pos_m, people)
+        ground_contact = False
+        for c in p.getContactPoints(bodyA=self.quad.body_id, physicsClientId=self.client):
+            other = c[2]
+            obj_id = self.world.body_to_object.get(other)
+            cls = self._classes.get(obj_id, "ground") if obj_id else "ground"
+            if cls in ("ground", "pad"):
+                ground_contact = True
+            else:
+                self.score.observe_collision(obj_id or f"body_{other}")
+        speed = float(np.linalg.norm(st.vel_mps))
+        height = st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1])
+        if ground_contact and speed > CRASH_SPEED_MPS:
+            self.score.observe_collision("ground")
+        low_and_slow = (ground_contact or height < TOUCHDOWN_HEIGHT_M) and speed < TOUCHDOWN_SPEED_MPS
+        if low_and_slow and height < TOUCHDOWN_HEIGHT_M + 0.1:
+            if self._landed_since is None:
+                self._landed_since = self.t_s
+            elif self.t_s - self._landed_since >= TOUCHDOWN_DWELL_S:
+                self.score.observe_touchdown(st.pos_m, self._landed_since)
+                self.done = True
+        else:
+            self._landed_since = None
+        if self.score.collisions:
+            self.done = True
+
+    @staticmethod
+    def _base_of(obj: object) -> np.ndarray:
+        centre = np.asarray(obj.position(), dtype=float)  # type: ignore[attr-defined]
+        size = obj.size_m  # type: ignore[attr-defined]
+        return centre - np.array([0.0, 0.0, size[2] / 2.0])
+
+    # ------------------------------------------------------------------ messages
+    def vehicle_state(self) -> VehicleState:
+        assert self.quad is not None and self.mission is not None and self.world is not None
+        st = self.quad.state()
+        height = st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1])
+        return VehicleState(
+            drone_id=self.settings.drone_id,
+            stamp=self.t_s,
+            seq=self.seq,
+            position_m=tuple(st.pos_m),
+            velocity_mps=tuple(st.vel_mps),
+            quat_xyzw=tuple(st.quat_xyzw),
+            euler_rpy_rad=tuple(st.euler_rpy_rad),
+            body_rates_rps=tuple(st.body_rates_rps),
+            on_ground=bool(height < TOUCHDOWN_HEIGHT_M),
+            collided=bool(self.score and self.score.collisions),
+            episode_id=self.mission.episode_id,
+        )
+
+    def camera_frame(self) -> bytes:
+        """Render the RGB-D camera and pack it with its typed header."""
+        assert self.quad is not None and self.camera is not None and self.mission is not None
+        st = self.quad.state()
+        r = self.camera.render(st.pos_m, st.quat_xyzw, with_seg=False)
+        k = r.intrinsics
+        header = CameraFrameHeader(
+            drone_id=self.settings.drone_id,
+            stamp=self.t_s,
+            seq=self.seq,
+            width=k.width,
+            height=k.height,
+            intrinsics=CameraIntrinsics(fx=k.fx, fy=k.fy, cx=k.cx, cy=k.cy, width=k.width, height=k.height),
+            T_world_camera=[float(x) for x in np.asarray(r.T_world_camera).reshape(-1)],
+            vehicle_position_m=tuple(st.pos_m),
+            episode_id=self.mission.episode_id,
+        )
+        return encode_frame(header, r.rgb, r.depth_m.astype(np.float32))
+
+    def truth(self) -> GroundTruth:
+        assert self.world is not None and self.mission is not None
+        objs = []
+        for o in self.world.objects:
+            objs.append(
+                TruthObject(
+                    obj_id=o.obj_id,
+                    cls=o.cls,
+                    position_m=tuple(float(x) for x in o.position()),
+                    velocity_mps=tuple(float(x) for x in o.velocity()),
+                    size_m=tuple(float(x) for x in o.size_m),
+                    dynamic=o.dynamic,
+                    is_person=o.cls == "person",
+                )
+            )
+        return GroundTruth(
+            drone_id=self.settings.drone_id,
+            stamp=self.t_s,
+            seq=self.seq,
+            world=self.world.name,
+            target_m=tuple(float(x) for x in self.world.target_m),
+            objects=objs,
+            episode_id=self.mission.episode_id,
+        )
+
+    def result(self, *, mpc_solve_ms: list[float] | None = None) -> EpisodeResult:
+        assert self.score is not None and self.mission is not None
+        success, outcome = self.score.outcome(aborted=self._ended_by_stop)
+        td = self.score.touchdown_m
+        solve = np.asarray(mpc_solve_ms or [], dtype=float)
+        return EpisodeResult(
+            drone_id=self.settings.drone_id,
+            stamp=self.t_s,
+            seq=self.seq,
+            episode_id=self.mission.episode_id,
+            world=self.mission.world,
+            seed=self.mission.seed,
+            method=self.mission.method,
+            clock=self.mission.clock,
+            success=success,
+            outcome=outcome,  # type: ignore[arg-type]
+            touchdown_m=tuple(float(x) for x in td) if td is not None else None,
+            touchdown_error_m=self.score.touchdown_error_m,
+            time_to_land_s=self.score.touchdown_t_s,
+            min_person_distance_m={k: round(v, 4) for k, v in self.score.min_person_distance_m.items()},
+            close_calls=len(self.score.close_call_people),
+            collisions=list(self.score.collisions),
+            sim_time_s=self.t_s,
+            wall_time_s=time.perf_counter() - self._wall_start,
+            control_ticks=self.seq,
+            deadline_misses=self.deadline_misses,
+            commands_missing=self.commands_missing,
+            mpc_solve_ms_p50=float(np.percentile(solve, 50)) if solve.size else None,
+            mpc_solve_ms_p95=float(np.percentile(solve, 95)) if solve.size else None,
+        )
+
+    def close(self) -> None:
+        try:
+            p.disconnect(physicsClientId=self.client)
+        except p.error:
+            pass

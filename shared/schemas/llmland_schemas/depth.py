@@ -1,0 +1,234 @@
+"""Obstacles from a metric depth image: back-projection, ground removal and 3D clustering.
+
+Pure numpy/scipy functions shared by the planner and the captioning service.
+
+Conventions (see ``docs/conventions.md``): the camera optical frame is x right, y down,
+z forward; ``depth_m`` is float32 z-depth along the optical axis in metres, ``inf`` (or
+``0``/``NaN``) where nothing was hit; ``T_world_camera`` (4, 4) maps camera points into the
+world (z up, ground ``z = 0`` unless a ground-height function is given). Pixel ``(u, v)``
+(column, row) is the ray through ``((u - cx) / fx, (v - cy) / fy, 1)``, i.e. pixel centres
+sit at integer coordinates (OpenCV convention).
+
+A :class:`Blob` describes the *visible surface* of an obstacle: the drone usually sees an
+object from one side only, so the bounds cover the points it saw, not the hidden back of the
+object (a box seen face-on looks as thin as its front face). Only ``lo_m[2]`` is extended
+down to the ground, because obstacles stand on it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+if TYPE_CHECKING:
+    from .frames import CameraFrame
+
+log = logging.getLogger(__name__)
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+GroundHeightFn = Callable[[FloatArray, FloatArray], FloatArray]
+"""``(x_m, y_m) -> z_m``: ground height under world points, vectorised over equal shapes."""
+
+
+class Intrinsics(Protocol):
+    """Anything with pinhole intrinsics in pixels (e.g. :class:`CameraIntrinsics`)."""
+
+    @property
+    def fx(self) -> float: ...
+    @property
+    def fy(self) -> float: ...
+    @property
+    def cx(self) -> float: ...
+    @property
+    def cy(self) -> float: ...
+
+
+@dataclass(frozen=True)
+class Blob:
+    """One obstacle cluster found in one depth frame (world frame, metres).
+
+    ``lo_m``/``hi_m`` are the axis-aligned bounds of the visible points with ``lo_m[2]``
+    lowered to the ground; ``size_m = hi_m - lo_m``; ``centroid_m = (lo_m + hi_m) / 2`` is the
+    centre of those bounds. ``mean_m`` is the mean of the visible points: it is biased toward
+    the faces seen head-on (they get most pixels), so the bounds centre is the better estimate
+    of where the object stands and is what trackers should use. ``bbox_px = (u0, v0, u1, v1)``
+    is in full-resolution pixels, ``u1``/``v1`` exclusive (``rgb[v0:v1, u0:u1]`` is the crop).
+    ``footprint_radius_m`` is the largest horizontal distance from the centroid to a visible
+    point. ``n_points`` counts subsampled pixels.
+    """
+
+    blob_id: int
+    centroid_m: FloatArray
+    mean_m: FloatArray
+    lo_m: FloatArray
+    hi_m: FloatArray
+    size_m: FloatArray
+    n_points: int
+    bbox_px: tuple[int, int, int, int]
+    footprint_radius_m: float
+
+
+def backproject(
+    depth_m: NDArray[np.floating], intrinsics: Intrinsics, T_world_camera: NDArray[np.floating], stride: int = 2
+) -> FloatArray:
+    """World points of every ``stride``-th pixel: (H, W) depth -> (ceil(H/s), ceil(W/s), 3) float64.
+
+    Subsampled pixel ``[i, j]`` is full-resolution pixel ``(u, v) = (j * stride, i * stride)``.
+    Points are NaN where the depth is invalid (non-finite or ``<= 0``).
+    """
+    if stride < 1:
+        raise ValueError(f"stride must be >= 1, got {stride}")
+    d = np.asarray(depth_m, dtype=np.float64)[::stride, ::stride]
+    d = np.where(np.isfinite(d) & (d > 0.0), d, np.nan)
+    h, w = d.shape
+    u = np.arange(w, dtype=np.float64) * stride
+    v = np.arange(h, dtype=np.float64) * stride
+    xn = (u - float(intrinsics.cx)) / float(intrinsics.fx)  # (W',)
+    yn = (v - float(intrinsics.cy)) / float(intrinsics.fy)  # (H',)
+    T = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)
+    R, t = T[:3, :3], T[:3, 3]
+    # p_world = R @ (d*xn, d*yn, d) + t = d * (xn*R[:,0] + yn*R[:,1] + R[:,2]) + t
+    rays = xn[None, :, None] * R[:, 0] + yn[:, None, None] * R[:, 1] + R[:, 2]  # (H', W', 3)
+    return np.asarray(d[:, :, None] * rays + t, dtype=np.float64)
+
+
+def ground_mask(
+    points_world: FloatArray, ground_height_fn: GroundHeightFn | None = None, tol_m: float = 0.15
+) -> BoolArray:
+    """True where a point lies less than ``tol_m`` above the ground (or below it); (..., 3) -> (...).
+
+    The ground is ``z = 0`` unless ``ground_height_fn(x, y)`` gives its height. NaN points are
+    not ground.
+    """
+    pts = np.asarray(points_world, dtype=np.float64)
+    x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+    if ground_height_fn is None:
+        height = z
+    else:
+        with np.errstate(invalid="ignore"):
+            height = z - np.asarray(ground_height_fn(x, y), dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        return np.asarray(height < tol_m)
+
+
+def _label_edges(points: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
+    """Connected components of ``valid`` pixels whose 4-neighbours are closer than ``gap_m`` in 3D.
+
+    Works on a (2H-1, 2W-1) grid where even cells are pixels and odd cells the edges between
+    them, so one ``ndimage.label`` pass respects depth discontinuities. Returns (H, W) labels
+    (0 = none) and the count.
+    """
+    h, w = valid.shape
+    gap2 = gap_m * gap_m
+    with np.errstate(invalid="ignore"):
+        dh = np.sum((points[:, 1:] - points[:, :-1]) ** 2, axis=-1) < gap2  # NaN -> False
+        dv = np.sum((points[1:, :] - points[:-1, :]) ** 2, axis=-1) < gap2
+    grid = np.zeros((2 * h - 1, 2 * w - 1), dtype=bool)
+    grid[::2, ::2] = valid
+    grid[::2, 1::2] = dh & valid[:, 1:] & valid[:, :-1]
+    grid[1::2, ::2] = dv & valid[1:, :] & valid[:-1, :]
+    labels, n = ndimage.label(grid)
+    return np.asarray(labels[::2, ::2], dtype=np.int32), int(n)
+
+
+def find_blobs(
+    depth_m: NDArray[np.floating],
+    intrinsics: Intrinsics,
+    T_world_camera: NDArray[np.floating],
+    *,
+    stride: int = 2,
+    min_points: int = 20,
+    max_range_m: float = 40.0,
+    ground_tol_m: float = 0.15,
+    cluster_gap_m: float = 0.6,
+    ground_height_fn: GroundHeightFn | None = None,
+) -> list[Blob]:
+    """Cluster the non-ground points of a depth image into obstacles.
+
+    Points farther than ``max_range_m`` (Euclidean, from the camera centre) or within
+    ``ground_tol_m`` of the ground are dropped; the rest are grouped by connectivity on the
+    subsampled pixel grid, two 4-neighbours being joined when their 3D distance is below
+    ``cluster_gap_m``. Clusters with fewer than ``min_points`` subsampled points are dropped.
+    Returns blobs sorted by decreasing ``n_points`` (``blob_id`` is the index in that list).
+    Note the neighbour spacing grows with range (``stride * range / fx``): keep
+    ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
+    """
+    pts = backproject(depth_m, intrinsics, T_world_camera, stride)
+    cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
+    with np.errstate(invalid="ignore"):
+        near = np.sum((pts - cam) ** 2, axis=-1) <= max_range_m * max_range_m
+    valid = near & ~ground_mask(pts, ground_height_fn, ground_tol_m)
+    if not valid.any():
+        return []
+    labels, n = _label_edges(pts, valid, cluster_gap_m)
+    if n == 0:
+        return []
+    flat = labels.ravel()
+    sel = np.flatnonzero(flat)
+    lab = flat[sel]
+    counts = np.bincount(lab, minlength=n + 1)
+    keep = np.flatnonzero(counts >= min_points)
+    if keep.size == 0:
+        return []
+    keep_mask = np.zeros(n + 1, dtype=bool)
+    keep_mask[keep] = True
+    sel = sel[keep_mask[lab]]
+    lab = flat[sel]
+    order = np.argsort(lab, kind="stable")
+    sel, lab = sel[order], lab[order]
+    p = pts.reshape(-1, 3)[sel]
+    rows, cols = np.divmod(sel, labels.shape[1])
+    starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
+    cnt = np.diff(np.r_[starts, lab.size])
+    lo = np.minimum.reduceat(p, starts, axis=0)
+    hi = np.maximum.reduceat(p, starts, axis=0)
+    mean = np.add.reduceat(p, starts, axis=0) / cnt[:, None]
+    u0, u1 = np.minimum.reduceat(cols, starts) * stride, np.maximum.reduceat(cols, starts) * stride
+    v0, v1 = np.minimum.reduceat(rows, starts) * stride, np.maximum.reduceat(rows, starts) * stride
+    height_px, width_px = np.shape(depth_m)
+    if ground_height_fn is None:
+        lo[:, 2] = np.minimum(lo[:, 2], 0.0)
+    else:
+        g = np.asarray(ground_height_fn(mean[:, 0], mean[:, 1]), dtype=np.float64)
+        lo[:, 2] = np.minimum(lo[:, 2], g)
+    centroid = 0.5 * (lo + hi)
+    seg = np.repeat(np.arange(starts.size), cnt)
+    r2 = np.sum((p[:, :2] - centroid[seg, :2]) ** 2, axis=1)
+    radius = np.sqrt(np.maximum.reduceat(r2, starts))
+
+    blobs: list[Blob] = []
+    for rank, k in enumerate(np.argsort(-cnt, kind="stable")):
+        blobs.append(
+            Blob(
+                blob_id=rank,
+                centroid_m=centroid[k].copy(),
+                mean_m=mean[k].copy(),
+                lo_m=lo[k].copy(),
+                hi_m=hi[k].copy(),
+                size_m=hi[k] - lo[k],
+                n_points=int(cnt[k]),
+                bbox_px=(
+                    int(u0[k]),
+                    int(v0[k]),
+                    int(min(u1[k] + stride, width_px)),
+                    int(min(v1[k] + stride, height_px)),
+                ),
+                footprint_radius_m=float(radius[k]),
+            )
+        )
+    log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)
+    return blobs
+
+
+def blobs_from_frame(frame: CameraFrame, **kwargs: Any) -> list[Blob]:
+    """:func:`find_blobs` on a decoded :class:`CameraFrame`; no depth gives no blobs."""
+    if frame.depth_m is None:
+        return []
+    return find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, **kwargs)

@@ -1,0 +1,294 @@
+"""Pydantic v2 models for every message on the LLM-Land bus (DESIGN §3).
+
+Every bus message derives from :class:`Envelope` and carries ``schema_version``,
+``drone_id``, ``stamp`` (seconds: sim time in lockstep, wall time in realtime) and
+``seq``. Units are SI and written into field names (see ``docs/conventions.md``).
+Models reject unknown fields and non-finite numbers, so a malformed payload fails
+validation instead of reaching a controller.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, NonNegativeInt
+
+SCHEMA_VERSION: Literal[1] = 1
+
+#: The most conservative class a planner assumes for an obstacle it has no spec for.
+CONSERVATIVE_BUFFER_M = 5.0
+CONSERVATIVE_Z_MIN_M = 5.0
+
+Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
+Quat = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
+NonNegFloat = Annotated[FiniteFloat, Field(ge=0.0)]
+DroneId = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]{1,64}$")]
+
+
+class Strict(BaseModel):
+    """Base for every model: unknown fields are errors, NaN/inf are rejected."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=False)
+
+
+class Envelope(Strict):
+    """Fields every bus message carries."""
+
+    schema_version: Literal[1] = SCHEMA_VERSION
+    drone_id: DroneId = "d0"
+    stamp: NonNegFloat = 0.0
+    seq: NonNegativeInt = 0
+
+
+# --------------------------------------------------------------------------- vehicle
+
+
+class VehicleState(Envelope):
+    """Vehicle state published by the sim (or a real vehicle bridge) each control tick."""
+
+    position_m: Vec3
+    velocity_mps: Vec3  # world frame
+    quat_xyzw: Quat
+    euler_rpy_rad: Vec3  # ZYX roll, pitch, yaw
+    body_rates_rps: Vec3  # body frame p, q, r
+    on_ground: bool = False
+    collided: bool = False
+    episode_id: str = ""
+
+
+class ControlCommand(Envelope):
+    """Body rates and collective thrust for the low-level rate controller.
+
+    ``state_seq`` echoes the ``seq`` of the VehicleState the command answers; in
+    lockstep the sim waits for it.
+    """
+
+    body_rates_rps: Vec3
+    thrust_n: NonNegFloat
+    state_seq: NonNegativeInt
+    mode: str = "track"  # track | hold | land | fallback | idle | disarm
+    source: str = "planner"
+    solve_ms: NonNegFloat | None = None  # MPC QP solve time of this tick
+    tick_ms: NonNegFloat | None = None  # whole controller compute time of this tick
+
+
+# --------------------------------------------------------------------------- camera
+
+
+class CameraIntrinsics(Strict):
+    """Pinhole intrinsics in pixels for an image of ``width`` × ``height``."""
+
+    fx: Annotated[FiniteFloat, Field(gt=0)]
+    fy: Annotated[FiniteFloat, Field(gt=0)]
+    cx: FiniteFloat
+    cy: FiniteFloat
+    width: Annotated[int, Field(gt=0, le=8192)]
+    height: Annotated[int, Field(gt=0, le=8192)]
+
+
+class CameraFrameHeader(Envelope):
+    """Typed header sent in front of the raw image bytes (see :mod:`.frames`).
+
+    ``T_world_camera`` is the 4×4 row-major transform from the optical camera frame
+    (x right, y down, z forward) into the world.
+    """
+
+    width: Annotated[int, Field(gt=0, le=8192)]
+    height: Annotated[int, Field(gt=0, le=8192)]
+    rgb_encoding: Literal["rgb8"] = "rgb8"
+    depth_encoding: Literal["32FC1"] | None = "32FC1"
+    intrinsics: CameraIntrinsics
+    T_world_camera: Annotated[list[FiniteFloat], Field(min_length=16, max_length=16)]
+    vehicle_position_m: Vec3 | None = None
+    episode_id: str = ""
+
+
+# --------------------------------------------------------------------------- truth
+
+
+class TruthObject(Strict):
+    obj_id: str
+    cls: str
+    position_m: Vec3
+    velocity_mps: Vec3 = (0.0, 0.0, 0.0)
+    size_m: Vec3
+    dynamic: bool = False
+    is_person: bool = False
+
+
+class GroundTruth(Envelope):
+    """What the world really contains. For scoring and visualisation only."""
+
+    world: str
+    target_m: Vec3
+    objects: list[TruthObject]
+    episode_id: str = ""
+
+
+# --------------------------------------------------------------------------- perception
+
+
+class Caption(Strict):
+    text: str
+    backend: str
+    model: str = ""
+    latency_ms: NonNegFloat = 0.0
+
+
+class SceneObject(Strict):
+    """One obstacle blob found in a depth image, with its crop caption."""
+
+    obj_id: str
+    caption: Caption
+    centroid_m: Vec3
+    size_m: Vec3
+    bbox_px: tuple[int, int, int, int] | None = None  # u0, v0, u1, v1
+
+
+class SceneDescription(Envelope):
+    """Captions for a camera frame; ``stamp`` is the frame's stamp."""
+
+    frame_seq: NonNegativeInt = 0
+    caption: Caption
+    objects: list[SceneObject] = []
+    latency_ms: NonNegFloat = 0.0
+    episode_id: str = ""
+
+
+class Evidence(Strict):
+    kb_id: str
+    score: FiniteFloat
+
+
+SpecSource = Literal["rag", "llm", "retrieval", "fallback", "given", "oracle"]
+
+
+class SafetySpec(Strict):
+    """The paper's two fields plus what a planner and an operator need."""
+
+    is_dynamic: bool
+    z_min: NonNegFloat
+    buffer_m: NonNegFloat
+    label: str = "unknown"
+    caption: str = ""
+    evidence: list[Evidence] = []
+    source: SpecSource = "fallback"
+    model: str = ""
+    latency_ms: NonNegFloat = 0.0
+
+    @classmethod
+    def conservative(cls, caption: str = "", *, model: str = "", latency_ms: float = 0.0) -> SafetySpec:
+        """The most conservative class: dynamic, the largest buffer and altitude floor."""
+        return cls(
+            is_dynamic=True,
+            z_min=CONSERVATIVE_Z_MIN_M,
+            buffer_m=CONSERVATIVE_BUFFER_M,
+            label="unknown",
+            caption=caption,
+            source="fallback",
+            model=model,
+            latency_ms=latency_ms,
+        )
+
+
+class ObjectSpec(Strict):
+    obj_id: str
+    centroid_m: Vec3
+    size_m: Vec3
+    spec: SafetySpec
+
+
+class SafetySpecMessage(Envelope):
+    """Per-object specs for one scene. ``stamp`` is the source frame's stamp."""
+
+    frame_seq: NonNegativeInt = 0
+    scene: SafetySpec
+    objects: list[ObjectSpec] = []
+    latency_ms: NonNegFloat = 0.0
+    episode_id: str = ""
+
+
+# --------------------------------------------------------------------------- planning
+
+
+class UnsafeBox(Strict):
+    obj_id: str
+    lo_m: Vec3
+    hi_m: Vec3
+    label: str = "unknown"
+    is_dynamic: bool = False
+
+
+class CorridorPolytope(Strict):
+    """{x | A x <= b}; rows of A are 3-vectors."""
+
+    A: list[Vec3]
+    b: list[FiniteFloat]
+
+
+class PlanSnapshot(Envelope):
+    mode: str
+    reference_m: list[Vec3] = []
+    corridors: list[CorridorPolytope] = []
+    regions: list[UnsafeBox] = []
+    search_ms: NonNegFloat | None = None
+    episode_id: str = ""
+
+
+# --------------------------------------------------------------------------- episodes
+
+WorldName = Literal["open_field", "urban", "forest_edge"]
+MethodName = Literal["reference", "baseline", "llm", "llm-land"]
+ClockMode = Literal["lockstep", "realtime"]
+
+
+class GivenSpec(Strict):
+    """A spec handed to the planner directly for an object class (no perception)."""
+
+    cls: str
+    spec: SafetySpec
+
+
+class MissionGoal(Envelope):
+    """Episode control from the CLI to the sim and the planner."""
+
+    command: Literal["start", "stop"] = "start"
+    episode_id: str
+    world: WorldName = "open_field"
+    seed: NonNegativeInt = 1
+    method: MethodName = "reference"
+    clock: ClockMode = "lockstep"
+    timeout_s: Annotated[FiniteFloat, Field(gt=0, le=3600)] = 60.0
+    start_m: Vec3 | None = None  # filled by the sim from the world when None
+    target_m: Vec3 | None = None
+    n_pedestrians: NonNegativeInt | None = None
+    given_specs: list[GivenSpec] = []
+    #: Where the sim records this episode to Rerun (a path on the sim's host), if at all.
+    rrd_path: str | None = None
+
+
+class EpisodeResult(Envelope):
+    """Scored outcome of one episode (DESIGN §8)."""
+
+    episode_id: str
+    world: str
+    seed: int
+    method: str
+    clock: str
+    success: bool
+    outcome: Literal["landed", "off_target", "collision", "close_call", "timeout", "aborted"]
+    touchdown_m: Vec3 | None = None
+    touchdown_error_m: NonNegFloat | None = None
+    time_to_land_s: NonNegFloat | None = None
+    min_person_distance_m: dict[str, NonNegFloat] = {}
+    close_calls: NonNegativeInt = 0
+    collisions: list[str] = []
+    sim_time_s: NonNegFloat = 0.0
+    wall_time_s: NonNegFloat = 0.0
+    control_ticks: NonNegativeInt = 0
+    deadline_misses: NonNegativeInt = 0
+    commands_missing: NonNegativeInt = 0
+    spec_latency_ms_mean: NonNegFloat | None = None
+    mpc_solve_ms_p50: NonNegFloat | None = None
+    mpc_solve_ms_p95: NonNegFloat | None = None
+    rrd_path: str | None = None

@@ -1,0 +1,147 @@
+"""find_blobs on synthetic depth images ray-cast analytically from boxes on the ground plane."""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from llmland_schemas.depth import backproject, find_blobs, ground_mask
+
+log = logging.getLogger(__name__)
+
+W = H = 384
+
+
+@dataclass(frozen=True)
+class K:
+    """Pinhole intrinsics (pixels), 90° field of view."""
+
+    fx: float = W / 2
+    fy: float = H / 2
+    cx: float = (W - 1) / 2
+    cy: float = (H - 1) / 2
+
+
+def camera_pose(position_m: tuple[float, float, float], pitch_down_rad: float) -> np.ndarray:
+    """(4, 4) T_world_camera for a camera facing world +x, pitched down (optical x right, y down)."""
+    f = np.array([np.cos(pitch_down_rad), 0.0, -np.sin(pitch_down_rad)])
+    r = np.array([0.0, -1.0, 0.0])
+    d = np.cross(f, r)
+    T = np.eye(4)
+    T[:3, :3] = np.column_stack([r, d, f])
+    T[:3, 3] = position_m
+    return T
+
+
+def raycast(T: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]], far_m: float = 100.0) -> np.ndarray:
+    """(H, W) float32 z-depth of the ground plane z=0 and axis-aligned boxes (lo, hi); inf = no hit."""
+    k = K()
+    u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    rays_cam = np.stack([(u - k.cx) / k.fx, (v - k.cy) / k.fy, np.ones_like(u)], axis=-1)
+    dirs = rays_cam @ T[:3, :3].T  # camera z component is 1, so ray parameter t = z-depth
+    origin = T[:3, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_best = np.where(dirs[..., 2] < 0, -origin[2] / dirs[..., 2], np.inf)
+        for lo, hi in boxes:
+            t0 = (lo - origin) / dirs
+            t1 = (hi - origin) / dirs
+            t_near = np.nanmax(np.minimum(t0, t1), axis=-1)
+            t_far = np.nanmin(np.maximum(t0, t1), axis=-1)
+            hit = (t_near <= t_far) & (t_near > 0)
+            t_best = np.where(hit & (t_near < t_best), t_near, t_best)
+    t_best[t_best > far_m] = np.inf
+    return t_best.astype(np.float32)
+
+
+def box(cx: float, cy: float, sx: float, sy: float, sz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Box of footprint centre (cx, cy), size (sx, sy, sz) standing on z = 0."""
+    return np.array([cx - sx / 2, cy - sy / 2, 0.0]), np.array([cx + sx / 2, cy + sy / 2, sz])
+
+
+BOXES = [box(10.0, -2.0, 1.0, 1.0, 1.5), box(12.0, 2.5, 0.8, 0.8, 1.8)]
+POSE = camera_pose((0.0, 0.0, 8.0), np.radians(40.0))
+
+
+def match(blobs: list, truth: list[tuple[np.ndarray, np.ndarray]]) -> list:
+    """Blob nearest (horizontally) to each true box."""
+    return [min(blobs, key=lambda b: np.linalg.norm(b.centroid_m[:2] - (lo[:2] + hi[:2]) / 2)) for lo, hi in truth]
+
+
+def test_backproject_roundtrip() -> None:
+    depth = raycast(POSE, [])
+    pts = backproject(depth, K(), POSE, stride=4)
+    assert pts.shape == (H // 4, W // 4, 3)
+    finite = np.isfinite(pts[..., 0])
+    assert finite.any() and not finite.all()  # sky rows are NaN
+    assert np.allclose(pts[finite][:, 2], 0.0, atol=1e-6)
+    assert ground_mask(pts).sum() == finite.sum()
+    bumpy = ground_mask(pts, lambda x, y: 0.2 + 0 * x, tol_m=0.15)
+    assert bumpy.sum() == finite.sum()  # points below the ground count as ground
+
+
+def test_two_boxes() -> None:
+    depth = raycast(POSE, BOXES)
+    find_blobs(depth, K(), POSE)  # warm-up
+    t0 = time.perf_counter()
+    blobs = find_blobs(depth, K(), POSE)
+    log.info("find_blobs %dx%d stride 2: %.2f ms", W, H, 1e3 * (time.perf_counter() - t0))
+    assert len(blobs) == 2
+    assert [b.blob_id for b in blobs] == [0, 1]
+    for b, (lo, hi) in zip(match(blobs, BOXES), BOXES, strict=True):
+        assert np.linalg.norm(b.centroid_m[:2] - (lo[:2] + hi[:2]) / 2) < 0.3
+        assert np.allclose(b.lo_m, lo, atol=0.3), (b.lo_m, lo)
+        assert np.allclose(b.hi_m, hi, atol=0.3), (b.hi_m, hi)
+        assert np.allclose(b.size_m, b.hi_m - b.lo_m)
+        assert b.lo_m[2] == 0.0
+        assert 0.3 < b.footprint_radius_m < 0.9
+        u0, v0, u1, v1 = b.bbox_px
+        assert 0 <= u0 < u1 <= W and 0 <= v0 < v1 <= H
+        assert np.isfinite(depth[v0:v1, u0:u1]).all()
+
+
+def test_touching_in_image_at_different_depths() -> None:
+    """A short box in front of a tall one: adjacent in the image, split by the depth jump."""
+    pose = camera_pose((0.0, 0.0, 1.2), np.radians(5.0))
+    boxes = [box(8.0, 0.0, 1.0, 1.0, 1.5), box(11.0, 0.5, 1.0, 1.0, 3.0)]
+    blobs = find_blobs(raycast(pose, boxes), K(), pose)
+    assert len(blobs) == 2
+    for b, (lo, hi) in zip(match(blobs, boxes), boxes, strict=True):
+        assert abs(b.centroid_m[1] - (lo[1] + hi[1]) / 2) < 0.3
+        assert b.size_m[0] < 0.3  # only the front face is visible: bounds are thin in x
+        assert abs(b.lo_m[0] - lo[0]) < 0.1
+        assert abs(b.hi_m[2] - hi[2]) < 0.3
+
+
+def test_ground_only_gives_no_blob() -> None:
+    assert find_blobs(raycast(POSE, []), K(), POSE) == []
+
+
+def test_invalid_depth_handled() -> None:
+    depth = raycast(POSE, BOXES)
+    depth[:40] = np.nan
+    depth[40:80] = 0.0
+    depth[:, :10] = np.inf
+    assert len(find_blobs(depth, K(), POSE)) == 2
+    assert find_blobs(np.full((H, W), np.inf, np.float32), K(), POSE) == []
+    assert find_blobs(np.full((H, W), np.nan, np.float32), K(), POSE) == []
+
+
+def test_range_and_min_points() -> None:
+    depth = raycast(POSE, BOXES)
+    assert find_blobs(depth, K(), POSE, max_range_m=5.0) == []
+    assert find_blobs(depth, K(), POSE, min_points=100_000) == []
+
+
+def test_raised_ground() -> None:
+    """Same image seen from 0.5 m higher is the scene on a ground at z = 0.5."""
+    depth = raycast(POSE, BOXES)
+    raised = POSE.copy()
+    raised[2, 3] += 0.5
+    assert len(find_blobs(depth, K(), raised)) > 2  # flat-ground assumption: the ground is an obstacle
+    blobs = find_blobs(depth, K(), raised, ground_height_fn=lambda x, y: np.full_like(x, 0.5))
+    assert len(blobs) == 2
+    for b, (lo, hi) in zip(match(blobs, BOXES), BOXES, strict=True):
+        assert np.allclose(b.lo_m, lo + [0, 0, 0.5], atol=0.3)
+        assert np.allclose(b.hi_m, hi + [0, 0, 0.5], atol=0.3)
