@@ -6,6 +6,8 @@ import argparse
 import json
 import logging
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from llmland_schemas import MissionGoal
@@ -13,6 +15,8 @@ from llmland_schemas.service import configure_logging, shutdown_event
 
 from .episodes import PILOT_FOR_METHOD, EpisodeRunner, new_episode_id
 from .launch import Stack, free_port, hub_bus
+from .oracle_specs import OracleSpecPublisher
+from .results import summarize, write_results_csv
 
 log = logging.getLogger("llmland")
 
@@ -24,26 +28,63 @@ def _services_for(method: str) -> list[str]:
     return ["sim", PILOT_FOR_METHOD[method]]
 
 
-def cmd_land(args: argparse.Namespace) -> int:
+def _mission(args: argparse.Namespace, seed: int, rrd: str | None = None) -> MissionGoal:
+    return MissionGoal(
+        drone_id=args.drone_id,
+        episode_id=new_episode_id(args.world, seed, args.method),
+        world=args.world,
+        seed=seed,
+        method=args.method,
+        clock=args.clock,
+        timeout_s=args.timeout,
+        n_pedestrians=args.pedestrians,
+        rrd_path=rrd,
+    )
+
+
+@contextmanager
+def _stack(args: argparse.Namespace) -> Iterator[EpisodeRunner]:
+    """Hub session + service processes for ``args.method``; yields an episode runner."""
     port = args.port or free_port()
-    rrd = str(Path(args.rrd).resolve()) if args.rrd else None
     with hub_bus(port) as bus, Stack(port, args.drone_id, log_level=args.service_log_level) as stack:
         stack.start(_services_for(args.method))
+        if args.specs == "oracle" and args.method in ("llm", "llm-land"):
+            OracleSpecPublisher(bus, args.drone_id)
         stack.wait_alive(bus)
-        runner = EpisodeRunner(bus, args.drone_id)
-        mission = MissionGoal(
-            drone_id=args.drone_id,
-            episode_id=new_episode_id(args.world, args.seed, args.method),
-            world=args.world,
-            seed=args.seed,
-            method=args.method,
-            clock=args.clock,
-            timeout_s=args.timeout,
-            rrd_path=rrd,
-        )
-        result = runner.run(mission)
+        yield EpisodeRunner(bus, args.drone_id)
+
+
+def cmd_land(args: argparse.Namespace) -> int:
+    rrd = str(Path(args.rrd).resolve()) if args.rrd else None
+    with _stack(args) as runner:
+        result = runner.run(_mission(args, args.seed, rrd))
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1
+
+
+def _parse_seeds(text: str) -> list[int]:
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        seeds += list(range(int(lo), int(hi or lo) + 1))
+    return seeds
+
+
+def cmd_trials(args: argparse.Namespace) -> int:
+    """Many seeds on one running stack; a CSV row per episode and a summary line."""
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    with _stack(args) as runner:
+        for seed in _parse_seeds(args.seeds):
+            r = runner.run(_mission(args, seed))
+            rows.append(r)
+            log.info("seed %d: %s (touchdown error %s m)", seed, r.outcome, r.touchdown_error_m)
+    write_results_csv(out / "trials.csv", rows)
+    summary = summarize(rows)
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+    return 0
 
 
 def cmd_up(args: argparse.Namespace) -> int:
@@ -73,6 +114,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _episode_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--world", choices=WORLDS, default="open_field")
+    p.add_argument("--method", choices=METHODS, default="baseline")
+    p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
+    p.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    p.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the world's)")
+    p.add_argument("--specs", choices=["oracle", "none"], default="oracle",
+                   help="semantic methods: where specs come from (oracle = given from ground truth)")
+    p.add_argument("--drone-id", default="d0")
+    p.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="llmland", description=__doc__)
     parser.add_argument("--log-level", default="INFO")
@@ -80,16 +133,17 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     land = sub.add_parser("land", help="fly one episode and print its EpisodeResult JSON")
-    land.add_argument("--world", choices=WORLDS, default="open_field")
-    land.add_argument("--method", choices=METHODS, default="reference")
+    _episode_args(land)
     land.add_argument("--seed", type=int, default=1)
-    land.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
-    land.add_argument("--timeout", type=float, default=60.0, help="episode time limit (sim seconds)")
     land.add_argument("--rrd", help="write a Rerun recording of the episode to this file")
-    land.add_argument("--drone-id", default="d0")
-    land.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     land.set_defaults(func=cmd_land)
+
+    trials = sub.add_parser("trials", help="fly many seeds on one stack; CSV + summary")
+    _episode_args(trials)
+    trials.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 1,4,7-9")
+    trials.add_argument("--out", default="runs/trials")
+    trials.set_defaults(func=cmd_trials)
 
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "pilot"])
@@ -98,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     up.set_defaults(func=cmd_up)
 
     bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
-    bench.add_argument("what", choices=["bus", "sim"])
+    bench.add_argument("what", choices=["bus", "sim", "mpc"])
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)

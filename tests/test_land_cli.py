@@ -33,7 +33,8 @@ def test_land_open_field_reference_writes_verified_rrd(tmp_path: Path) -> None:
 
 
 def test_land_realtime_clock(tmp_path: Path) -> None:
-    proc = run_cli("land", "--world", "open_field", "--seed", "2", "--clock", "realtime", "--timeout", "40")
+    proc = run_cli("land", "--world", "open_field", "--seed", "2", "--method", "reference", "--clock", "realtime",
+                   "--timeout", "40")
     assert proc.returncode == 0, proc.stderr[-3000:]
     result = json.loads(proc.stdout)
     assert result["clock"] == "realtime"

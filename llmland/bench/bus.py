@@ -11,6 +11,7 @@ import sys
 import threading
 import time
 
+import zenoh
 from llmland_schemas import VehicleState, decode, encode
 from llmland_schemas.bus import Bus, ZenohSettings
 
@@ -54,7 +55,12 @@ def run_bus(n: int = 3000, warmup: int = 200) -> dict[str, float]:
                     raise RuntimeError("echo process did not come up")
             got = threading.Event()
             pub = bus.publisher(PING, express=True)
-            bus.session.declare_subscriber(PONG, lambda s: (decode(VehicleState, s.payload.to_bytes()), got.set()))
+
+            def on_pong(sample: zenoh.Sample) -> None:
+                decode(VehicleState, sample.payload.to_bytes())
+                got.set()
+
+            bus.session.declare_subscriber(PONG, on_pong)
             rtts: list[float] = []
             for i in range(1, warmup + n + 1):
                 got.clear()

@@ -7,7 +7,8 @@ from the box's *support function*, ``β = max_{x ∈ B} n·x + κ``, so the box 
 outside (``n·x ≤ β − κ`` on ``B``) whatever the rounding in ``n``; ``κ = min(kappa_m, d/2)``
 with ``d`` the segment–box distance keeps the segment strictly inside. Boxes already at least
 ``SEP_TOL_M`` outside the polytope get no row. A segment that itself touches a box cannot be separated: that box is
-cut off by its face that keeps most of the segment, and ``segment_clear`` is ``False``.
+cut off by its face that keeps most of the segment, and ``segment_clear`` is ``False``
+(touching means closer than ``TOUCH_TOL_M``).
 
 If more than ``max_halfspaces`` rows are needed, the margin shrinks; if that is not enough
 the caller splits the segment (:func:`corridors_for_path` halves it). Rows are unit normals.
@@ -19,6 +20,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from llmland_planner.dynamics import FloatArray
 from llmland_planner.path import Path
@@ -28,6 +30,7 @@ log = logging.getLogger(__name__)
 
 _EYE6 = np.vstack([np.eye(3), -np.eye(3)])
 SEP_TOL_M = 1e-6  # a box counts as excluded only if it lies this far outside a row
+TOUCH_TOL_M = 1e-6  # a segment closer than this to a box counts as touching it
 
 
 @dataclass
@@ -42,7 +45,7 @@ class Corridor:
     seg_b: FloatArray | None = None
     segment_clear: bool = True
 
-    def contains(self, p: FloatArray, tol: float = 1e-9) -> bool:
+    def contains(self, p: ArrayLike, tol: float = 1e-9) -> bool:
         """True when ``p (3,)`` satisfies every row up to ``tol`` (m)."""
         return bool(np.all(self.A @ np.asarray(p, dtype=float) <= self.b + tol))
 
@@ -56,7 +59,7 @@ def segment_box_closest(a: FloatArray, b: FloatArray, lo: FloatArray,
     Returns ``(t (R,), seg_pt (R, 3), box_pt (R, 3))``.
     """
     d = b - a
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         br = np.concatenate([(lo - a) / d, (hi - a) / d], axis=1)  # (R, 6)
     br = np.where(np.isfinite(br), np.clip(br, 0.0, 1.0), 0.0)
     knots = np.sort(np.concatenate([np.zeros((lo.shape[0], 1)), br,
@@ -93,7 +96,10 @@ def corridor_for_segment(a: FloatArray, b: FloatArray, regions: list[UnsafeRegio
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     lo, hi = boxes_array(regions)
-    clear = not bool(np.any(segments_hit_boxes(a[None], b[None], lo, hi))) if lo.size else True
+    clear = True
+    if lo.size:
+        _, s_all, q_all = segment_box_closest(a, b, lo, hi)
+        clear = bool(np.min(np.linalg.norm(s_all - q_all, axis=1)) > TOUCH_TOL_M)
     margin = margin_m
     for _ in range(6):
         rows = [r for r in _EYE6]
@@ -108,7 +114,7 @@ def corridor_for_segment(a: FloatArray, b: FloatArray, regions: list[UnsafeRegio
                 blo, bhi = lo[idx[i]], hi[idx[i]]
                 if np.any(_box_min(np.array(rows), blo, bhi) > np.array(rhs) + SEP_TOL_M):
                     continue  # already outside the polytope
-                if dist[i] > 1e-9:
+                if dist[i] > TOUCH_TOL_M:
                     n = (seg_pt[i] - box_pt[i]) / dist[i]
                     beta = float(np.sum(np.maximum(n * blo, n * bhi))) + min(kappa_m, 0.5 * dist[i])
                 else:
@@ -177,7 +183,7 @@ def corridors_for_path(path: Path, regions: list[UnsafeRegion], max_halfspaces: 
                 cor = corridor_for_segment(a, b, regions, 0.0, kappa_m, 10_000)
                 assert cor is not None
             if not cor.segment_clear:
-                log.warning("path chord %s→%s touches an unsafe region", a, b)
+                log.info("path chord %s→%s touches an unsafe region", a, b)
             cor.t0, cor.t1 = t0, t1
             result.append(cor)
     return result
@@ -203,12 +209,13 @@ def active_halfspaces(corridor: Corridor | None, k_max: int) -> tuple[FloatArray
     return a_out, b_out
 
 
-def halfspaces_at_times(corridors: list[Corridor], times_s: FloatArray,
+def halfspaces_at_times(corridors: list[Corridor], times_s: ArrayLike,
                         k_max: int) -> list[tuple[FloatArray, FloatArray]]:
     """Per query time ``(N,)`` s the padded rows of the corridor covering it (clamped)."""
+    times = np.atleast_1d(np.asarray(times_s, dtype=float))
     if not corridors:
-        return [active_halfspaces(None, k_max) for _ in times_s]
+        return [active_halfspaces(None, k_max) for _ in times]
     starts = np.array([c.t0 for c in corridors])
-    idx = np.clip(np.searchsorted(starts, np.asarray(times_s), side="right") - 1, 0,
+    idx = np.clip(np.searchsorted(starts, times, side="right") - 1, 0,
                   len(corridors) - 1)
     return [active_halfspaces(corridors[int(i)], k_max) for i in idx]

@@ -11,7 +11,6 @@ from __future__ import annotations
 import logging
 import threading
 
-import numpy as np
 from llmland_schemas import (
     ControlCommand,
     MissionGoal,
@@ -20,6 +19,7 @@ from llmland_schemas import (
     VehicleState,
     alive,
     key,
+    vec3,
 )
 from llmland_schemas.bus import Bus
 from llmland_schemas.frames import CameraFrame, decode_frame
@@ -70,7 +70,7 @@ class PlannerService:
             out = self.planner.tick(st)
         cmd = ControlCommand(
             drone_id=self.settings.drone_id, stamp=st.stamp, seq=st.seq, state_seq=st.seq,
-            body_rates_rps=tuple(float(x) for x in np.asarray(out.body_rates_rps)), thrust_n=max(0.0, out.thrust_n),
+            body_rates_rps=vec3(out.body_rates_rps), thrust_n=max(0.0, out.thrust_n),
             mode=out.mode, source="planner",
             solve_ms=out.mpc.solve_ms if out.mpc else None, tick_ms=out.tick_ms,
         )

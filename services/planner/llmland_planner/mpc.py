@@ -55,7 +55,9 @@ class MpcWeights:
 
 @dataclass
 class MpcResult:
-    """One tick's output: ``u0 (4,)``, predictions ``x_pred (N+1, 9)``, ``u_pred (N, 4)``."""
+    """One tick's output: ``u0 (4,)`` (rates rad/s, thrust N), predictions ``x_pred (N+1, 9)``,
+    ``u_pred (N, 4)``; ``solve_ms`` = clarabel update + solve, ``tick_ms`` = the whole call;
+    ``max_slack`` (m) = largest corridor/floor violation the QP accepted."""
 
     u0: FloatArray
     x_pred: FloatArray
@@ -66,6 +68,7 @@ class MpcResult:
     iterations: int
     ok: bool
     max_slack: float = 0.0
+    z: FloatArray | None = None  # raw QP solution (None on fallback)
 
 
 @dataclass
@@ -86,7 +89,7 @@ class MpcController:
 
     def __init__(self, params: ModelParams | None = None, horizon: int = 20, dt: float = 0.05,
                  max_halfspaces: int = 8, weights: MpcWeights | None = None,
-                 z_floor_m: float = 0.0, qp_max_iter: int = 50) -> None:
+                 z_floor_m: float = 0.0, qp_max_iter: int = 50, qp_tol: float = 1e-6) -> None:
         self.params = params or ModelParams()
         self.n, self.dt, self.k = horizon, dt, max_halfspaces
         self.weights = w = weights or MpcWeights()
@@ -111,8 +114,10 @@ class MpcController:
         self._settings.presolve_enable = False
         self._settings.iterative_refinement_enable = False
         self._settings.max_iter = qp_max_iter
+        self._settings.max_threads = 1  # the machine is shared; threads only add jitter here
+        self._settings.direct_solve_method = "qdldl"
         for name in ("tol_gap_abs", "tol_gap_rel", "tol_feas", "tol_infeas_abs", "tol_infeas_rel"):
-            setattr(self._settings, name, 1e-6)
+            setattr(self._settings, name, qp_tol)
         self._solver: Any = None
         self._q = np.zeros(self.ix.n_var)
         self._b = np.zeros(self.ix.n_con)
@@ -136,7 +141,12 @@ class MpcController:
               ref_yaw: float | FloatArray = 0.0, halfspaces: Halfspaces | None = None,
               z_floor_m: float | None = None) -> MpcResult:
         """One RTI tick from ``x0 (9,)`` tracking ``ref_pos, ref_vel (N+1, 3)`` and ``ref_yaw``
-        (rad, scalar or ``(N+1,)``); ``halfspaces[k-1] = (A (K,3), b (K,))`` bound ``p_k``."""
+        (rad, scalar or ``(N+1,)``; index ``k`` is time ``k·dt`` from now).
+
+        ``halfspaces[k-1] = (A (≤K, 3), b (≤K,))`` constrains ``p_k`` (stage ``k = 1…N``); fewer
+        rows or a shorter list leave the rest unconstrained, ``None`` means no corridor.
+        ``z_floor_m`` overrides the (soft) floor ``z_k ≥ z_floor`` for this tick.
+        """
         t_tick = time.perf_counter()
         try:
             self._fill(np.asarray(x0, dtype=float), np.asarray(ref_pos, dtype=float),
@@ -162,7 +172,7 @@ class MpcController:
         self.u_prev = u0.copy()
         return MpcResult(u0, x_pred, u_pred, status, solve_ms,
                          1e3 * (time.perf_counter() - t_tick), iters, True,
-                         float(np.max(z[ix.s(1):], initial=0.0)))
+                         float(np.max(z[ix.s(1):], initial=0.0)), z)
 
     def _fill(self, x0: FloatArray, ref_pos: FloatArray, ref_vel: FloatArray,
               ref_yaw: float | FloatArray, halfspaces: Halfspaces | None, z_floor: float) -> None:
@@ -184,7 +194,10 @@ class MpcController:
         corr_a, corr_b = np.zeros((n, k, 3)), np.ones((n, k))
         if halfspaces is not None:
             for s, (ha, hb) in enumerate(halfspaces[:n]):
-                corr_a[s], corr_b[s] = np.asarray(ha).reshape(k, 3), np.asarray(hb).reshape(k)
+                rows, rhs = np.asarray(ha, dtype=float).reshape(-1, 3), np.asarray(hb, dtype=float).ravel()
+                if rows.shape[0] > k or rhs.shape[0] != rows.shape[0]:
+                    raise ValueError(f"stage {s + 1}: {rows.shape[0]} corridor rows, at most {k}")
+                corr_a[s, : rows.shape[0]], corr_b[s, : rows.shape[0]] = rows, rhs
         vals[self._slots["corr"]] = corr_a.ravel()
         b = self._b
         b[:NX] = x0

@@ -124,24 +124,24 @@ def build_constraints(ix: QpIndex, mask_a: NDArray[np.bool_],
     lay.add(np.arange(NX), np.arange(NX), 1.0)
     st = np.arange(n)
     base = NX + NX * st  # first row of each dynamics block
-    lay.add(base[:, None] + np.arange(NX), np.array([ix.x(s + 1) for s in st])[:, None]
+    lay.add(base[:, None] + np.arange(NX), np.array([ix.x(int(s) + 1) for s in st])[:, None]
             + np.arange(NX), 1.0)
     ai, aj = np.nonzero(mask_a)
-    slots["A"] = lay.add(base[:, None] + ai, np.array([ix.x(s) for s in st])[:, None] + aj, 0.0)
+    slots["A"] = lay.add(base[:, None] + ai, np.array([ix.x(int(s)) for s in st])[:, None] + aj, 0.0)
     bi, bj = np.nonzero(mask_b)
-    slots["B"] = lay.add(base[:, None] + bi, np.array([ix.u(s) for s in st])[:, None] + bj, 0.0)
-    ucol = np.array([ix.u(s) for s in st])[:, None] + np.arange(NU)
+    slots["B"] = lay.add(base[:, None] + bi, np.array([ix.u(int(s)) for s in st])[:, None] + bj, 0.0)
+    ucol = np.array([ix.u(int(s)) for s in st])[:, None] + np.arange(NU)
     r_in = ix.row_input + 2 * NU * st[:, None]
     lay.add(r_in + np.arange(NU), ucol, 1.0)
     lay.add(r_in + NU + np.arange(NU), ucol, -1.0)
-    xcol = np.array([ix.x(s + 1) for s in st])
+    xcol = np.array([ix.x(int(s) + 1) for s in st])
     r_t = ix.row_tilt + 4 * st
     lay.add(np.stack([r_t, r_t + 1, r_t + 2, r_t + 3], 1),
             np.stack([xcol + 6, xcol + 6, xcol + 7, xcol + 7], 1), np.array([1.0, -1.0, 1.0, -1.0]))
     r_c = ix.row_corr + (k + 1) * st[:, None] + np.arange(k)  # (n, k)
     slots["corr"] = lay.add(np.repeat(r_c[..., None], 3, axis=2),
                             xcol[:, None, None] + np.arange(3), 0.0)
-    scol = np.array([ix.s(s + 1) for s in st])
+    scol = np.array([ix.s(int(s) + 1) for s in st])
     lay.add(r_c, np.repeat(scol[:, None], k, axis=1), -1.0)
     r_f = ix.row_corr + (k + 1) * st + k
     lay.add(r_f, xcol + 2, -1.0)

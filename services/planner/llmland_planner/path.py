@@ -124,7 +124,7 @@ def resample(path: Path, dt: float, t_start: float | None = None,
     if count is None:
         count = int(math.floor((float(path.t[-1]) - t0) / dt + 1e-9)) + 1
         count = max(count, 1)
-    tq = t0 + dt * np.arange(count)
+    tq: FloatArray = t0 + dt * np.arange(count, dtype=float)
     tc = np.clip(tq, path.t[0], path.t[-1])
     i = np.clip(np.searchsorted(path.t, tc, side="right") - 1, 0, len(path.t) - 2)
     h = path.t[i + 1] - path.t[i]

@@ -14,10 +14,18 @@ import logging
 import math
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from llmland_schemas import CorridorPolytope, MissionGoal, PlanSnapshot, SafetySpecMessage, UnsafeBox, VehicleState
+from llmland_schemas import (
+    CorridorPolytope,
+    MissionGoal,
+    PlanSnapshot,
+    SafetySpecMessage,
+    UnsafeBox,
+    VehicleState,
+    vec3,
+)
 from llmland_schemas.frames import CameraFrame
 
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
@@ -31,6 +39,9 @@ from .settings import PlannerSettings
 from .world_model import WorldModel
 
 log = logging.getLogger(__name__)
+
+#: Farther than this (m) outside the current corridor, its rows are dropped and we replan.
+CORRIDOR_EXIT_M = 0.3
 
 
 @dataclass
@@ -80,6 +91,8 @@ class Planner:
         self._last_replan_s = -1e9
         self._yaw_ref = 0.0
         self.failed_searches = 0
+        self._force_replan = False
+        self._last_t = 0.0
 
     # ------------------------------------------------------------------ episode inputs
     def start(self, mission: MissionGoal) -> None:
@@ -90,6 +103,7 @@ class Planner:
             self.landing = LandingLogic(np.asarray(mission.target_m, dtype=float), self.settings)
             self.active, self._job = None, None
             self._last_replan_s = -1e9
+            self._last_t = 0.0
             d = np.subtract(mission.target_m, mission.start_m)[:2]
             self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
             self.mpc.reset()
@@ -114,6 +128,11 @@ class Planner:
         with self._lock:
             regions = self.world.regions(t)
         phase, goal = self.landing.update(pos, vel, regions, t)
+        if phase in (Phase.HOLD, Phase.DESCEND):
+            # Scan: the camera looks forward-down, so turn slowly over the landing spot to
+            # see people coming from every side before and while descending.
+            self._yaw_ref += self.settings.scan_yaw_rate_rps * max(0.0, t - self._last_t)
+        self._last_t = t
         snapshot = None
         if phase == Phase.TOUCHDOWN:
             return TickOutput(np.zeros(3), 0.0, phase.value, None, 1e3 * (time.perf_counter() - t_tick))
@@ -130,7 +149,15 @@ class Planner:
             snapshot = self._maybe_replan(t, pos, vel, goal, regions)
             ref_pos, ref_vel, halfspaces = self._reference(pos, goal)
         x0 = np.concatenate([pos, vel, np.asarray(state.euler_rpy_rad)])
-        res = self.mpc.solve(x0, ref_pos, ref_vel, self._yaw_ref, halfspaces, z_floor_m=float(goal[2]) - 0.5)
+        z_floor = float(self.landing.target_m[2]) - 0.2  # the ground, not the goal
+        yaw = float(state.euler_rpy_rad[2])
+        yaw_ref = yaw + math.remainder(self._yaw_ref - yaw, 2.0 * math.pi)  # no unwinding through ±π
+        res = self.mpc.solve(x0, ref_pos, ref_vel, yaw_ref, halfspaces, z_floor_m=z_floor)
+        if halfspaces is not None and (not res.ok or res.max_slack > CORRIDOR_EXIT_M):
+            # The corridors no longer fit the vehicle's state: an RTI step leaning on large
+            # slacks is unreliable. Track the path without them and replan at once.
+            self._force_replan = True
+            res = self.mpc.solve(x0, ref_pos, ref_vel, yaw_ref, None, z_floor_m=z_floor)
         mode = phase.value if res.ok else "fallback"
         return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
                           1e3 * (time.perf_counter() - t_tick), snapshot)
@@ -147,13 +174,17 @@ class Planner:
                 snapshot = self._snapshot(t, regions)
             else:
                 self.failed_searches += 1
+                if self.active is not None and self._path_blocked(self.active.path, regions):
+                    self.active = None  # never keep following a path into a region: hold instead
         need = (
-            self.active is None
+            self._force_replan
+            or self.active is None
             or float(np.linalg.norm(self.active.goal_m - goal)) > 0.3
             or t - self._last_replan_s >= self.settings.replan_period_s
             or self._path_blocked(self.active.path, regions)
         )
         if need and self._job is None:
+            self._force_replan = False
             self._last_replan_s = t
             self._job = _Job(t0_s=t, goal_m=goal.copy())
             threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions)),
@@ -163,7 +194,11 @@ class Planner:
     def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion]) -> None:
         t0 = time.perf_counter()
         try:
-            path = plan(pos, vel, job.goal_m, regions, self.search_cfg)
+            # Clearance region at the start (paper App.): if a region has grown over the
+            # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
+            depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
+            cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3))
+            path = plan(pos, vel, job.goal_m, regions, cfg)
             if path is not None:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
                 job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
@@ -194,6 +229,13 @@ class Planner:
         ref = resample(p, dt, t_start=t_ref, count=n + 1)
         times = t_ref + dt * np.arange(1, n + 1)
         hs = halfspaces_at_times(act.corridors, times, self.settings.max_halfspaces) if act.corridors else None
+        if hs is not None:
+            a0, b0 = hs[0]
+            if float(np.max(a0 @ pos - b0)) > CORRIDOR_EXIT_M:
+                # Off the corridor (disturbance, held position, changed goal): corridor rows
+                # from here would only be slack; track the path without them and replan now.
+                self._force_replan = True
+                hs = None
         return ref.p, ref.v, hs
 
     def _snapshot(self, t: float, regions: list[UnsafeRegion]) -> PlanSnapshot:
@@ -203,10 +245,10 @@ class Planner:
             drone_id=self.settings.drone_id,
             stamp=t,
             mode=self.landing.phase.value if self.landing else "",
-            reference_m=[tuple(map(float, q)) for q in act.path.p[::2]] if act else [],
-            corridors=[CorridorPolytope(A=[tuple(map(float, r)) for r in c.A], b=[float(x) for x in c.b])
+            reference_m=[vec3(q) for q in act.path.p[::2]] if act else [],
+            corridors=[CorridorPolytope(A=[vec3(r) for r in c.A], b=[float(x) for x in c.b])
                        for c in (act.corridors if act else [])][:20],
-            regions=[UnsafeBox(obj_id=r.obj_id, lo_m=tuple(map(float, r.lo)), hi_m=tuple(map(float, r.hi)),
+            regions=[UnsafeBox(obj_id=r.obj_id, lo_m=vec3(r.lo), hi_m=vec3(r.hi),
                                label=r.label, is_dynamic=r.is_dynamic) for r in regions],
             search_ms=act.search_ms if act else None,
             episode_id=self.mission.episode_id,

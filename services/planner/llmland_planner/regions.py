@@ -24,8 +24,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from llmland_planner.dynamics import FloatArray
 
@@ -53,12 +52,12 @@ class UnsafeRegion:
         if np.any(self.hi < self.lo):
             raise ValueError(f"region {self.obj_id!r}: hi {self.hi} below lo {self.lo}")
 
-    def contains(self, p: FloatArray, margin_m: float = 0.0) -> bool:
+    def contains(self, p: ArrayLike, margin_m: float = 0.0) -> bool:
         """True when ``p (3,)`` lies in the box grown by ``margin_m`` (closed set)."""
         q = np.asarray(p, dtype=float)
         return bool(np.all(q >= self.lo - margin_m) and np.all(q <= self.hi + margin_m))
 
-    def signed_distance(self, p: FloatArray) -> float:
+    def signed_distance(self, p: ArrayLike) -> float:
         """Box SDF (m) at ``p (3,)``: positive outside, negative inside (depth to nearest face)."""
         q = np.asarray(p, dtype=float)
         center = 0.5 * (self.lo + self.hi)
@@ -68,13 +67,13 @@ class UnsafeRegion:
         inside = float(min(np.max(d), 0.0))
         return outside + inside
 
-    def closest_point(self, p: FloatArray) -> FloatArray:
+    def closest_point(self, p: ArrayLike) -> FloatArray:
         """Point of the box ``(3,)`` nearest to ``p (3,)``."""
         return np.clip(np.asarray(p, dtype=float), self.lo, self.hi)
 
 
-def from_obstacle(center_xy: FloatArray, radius_m: float, height_m: float, buffer_m: float,
-                  z_min: float, velocity_xy: FloatArray | None = None, horizon_s: float = 0.0,
+def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer_m: float,
+                  z_min: float, velocity_xy: ArrayLike | None = None, horizon_s: float = 0.0,
                   dt_s: float = 0.25, *, obj_id: str = "", label: str = "",
                   z_ground_m: float = 0.0) -> list[UnsafeRegion]:
     """Boxes for a cylindrical obstacle (centre ``(2,)`` m, radius, height above ground).
@@ -112,7 +111,7 @@ def boxes_array(regions: list[UnsafeRegion]) -> tuple[FloatArray, FloatArray]:
     return np.stack([r.lo for r in regions]), np.stack([r.hi for r in regions])
 
 
-def segments_hit_boxes(a: FloatArray, b: FloatArray, lo: FloatArray, hi: FloatArray) -> BoolArray:
+def segments_hit_boxes(a: ArrayLike, b: ArrayLike, lo: FloatArray, hi: FloatArray) -> BoolArray:
     """Vectorised slab test: ``a, b (S, 3)`` segments vs ``lo, hi (R, 3)`` boxes → bool ``(S, R)``.
 
     A segment touching a box face counts as a hit (closed boxes).
@@ -134,14 +133,14 @@ def segments_hit_boxes(a: FloatArray, b: FloatArray, lo: FloatArray, hi: FloatAr
     return result
 
 
-def segment_hits(a: FloatArray, b: FloatArray, region: UnsafeRegion) -> bool:
+def segment_hits(a: ArrayLike, b: ArrayLike, region: UnsafeRegion) -> bool:
     """True when the segment ``a → b`` (each ``(3,)``) touches ``region``."""
     hit = segments_hit_boxes(np.reshape(a, (1, 3)), np.reshape(b, (1, 3)),
                              region.lo[None, :], region.hi[None, :])
     return bool(hit[0, 0])
 
 
-def points_in_boxes(points: FloatArray, lo: FloatArray, hi: FloatArray) -> BoolArray:
+def points_in_boxes(points: ArrayLike, lo: FloatArray, hi: FloatArray) -> BoolArray:
     """Membership ``(P, R)`` bool of ``points (P, 3)`` in closed boxes ``lo, hi (R, 3)``."""
     p = np.asarray(points, dtype=float)[:, None, :]
     result: BoolArray = np.all((p >= lo[None]) & (p <= hi[None]), axis=2)

@@ -10,9 +10,11 @@ when one is feasible.
 
 Heuristic ``h̃(p, v) = w · (h₀(p, v) + λ·φ(p))``. ``h₀ = ρ · T_lb`` with ``T_lb`` the larger of
 ``‖goal − p‖ / v_max`` and the per-axis bang-bang minimum time under ``|a_d| ≤ a_max``,
-``|v_d| ≤ v_max``; it is admissible (``w = 1``). ``φ`` is the paper's region penalty read for
-*unsafe* boxes (the paper penalises leaving a safe box ``B``; here the safe set is the free
-space, the complement of the unsafe boxes): for every unsafe box grown by
+``|v_d| ≤ v_max`` and ending at rest; it is admissible, so ``w = 1`` is plain A*. The
+default ``w = 2`` (weighted A*) keeps typical searches within the 50 ms budget, since the
+time bound ignores the ``‖a‖²`` term and detours. ``φ`` is the paper's region penalty read
+for *unsafe* boxes (the paper penalises leaving a safe box ``B``; here the safe set is the
+free space, the complement of the unsafe boxes): for every unsafe box grown by
 ``penalty_margin_m`` that contains ``p``, add the squared distance needed to leave it through
 its nearest face plus ``ε`` — the same ``(p_d − b_d)² + ε`` term, taken on the exit axis.
 Since colliding primitives are rejected explicitly, φ acts in the margin band and steers the
@@ -33,10 +35,11 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from llmland_planner.dynamics import FloatArray
 from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
-from llmland_planner.regions import UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
+from llmland_planner.regions import BoolArray, UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
 
 __all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
 
@@ -69,7 +72,7 @@ class SearchConfig:
     time_budget_s: float = 0.05
 
 
-def penalty(points: FloatArray, regions: list[UnsafeRegion], margin_m: float = 0.0,
+def penalty(points: ArrayLike, regions: list[UnsafeRegion], margin_m: float = 0.0,
             eps: float = 0.01) -> FloatArray:
     """Region penalty φ for ``points (M, 3)`` → ``(M,)`` (m²); see the module docstring."""
     pts = np.atleast_2d(np.asarray(points, dtype=float))
@@ -119,13 +122,13 @@ class _Checker:
         self.cfg = cfg
         self.ws_lo, self.ws_hi = np.array(cfg.workspace_lo), np.array(cfg.workspace_hi)
 
-    def exempt(self, pts: FloatArray) -> FloatArray:
-        """Bool ``(..., )``: points within a clearance ball."""
+    def exempt(self, pts: FloatArray) -> BoolArray:
+        """Bool ``(...)``: points within a clearance ball."""
         d = np.linalg.norm(pts[..., None, :] - self.centers, axis=-1)
-        out: FloatArray = np.any(d <= self.cfg.clearance_radius_m, axis=-1)
+        out: BoolArray = np.any(d <= self.cfg.clearance_radius_m, axis=-1)
         return out
 
-    def ok(self, pts: FloatArray) -> FloatArray:
+    def ok(self, pts: FloatArray) -> BoolArray:
         """Feasibility of ``(M, S, 3)`` sample chains (``pts[:, 0]`` = common/known-good start)."""
         m, s, _ = pts.shape
         ex = self.exempt(pts)
@@ -148,8 +151,8 @@ class _Checker:
         good &= ~hit_seg.reshape(m, s - 1).any(axis=1)
         return good
 
-    def _clip_to_balls(self, a: FloatArray, b: FloatArray, ea: FloatArray,
-                       eb: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def _clip_to_balls(self, a: FloatArray, b: FloatArray, ea: BoolArray,
+                       eb: BoolArray) -> tuple[FloatArray, FloatArray]:
         """Shorten mixed segments (one end exempt) to their part outside the clearance ball."""
         a, b = a.copy(), b.copy()
         r = self.cfg.clearance_radius_m
@@ -171,7 +174,7 @@ def _accel_set(cfg: SearchConfig) -> FloatArray:
     return np.array(list(itertools.product(xy, xy, z)), dtype=float)
 
 
-def plan(start_p: FloatArray, start_v: FloatArray, goal_p: FloatArray,
+def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
          regions: list[UnsafeRegion], config: SearchConfig | None = None) -> Path | None:
     """Search a path from ``(start_p, start_v)`` (each ``(3,)``) to rest at ``goal_p (3,)``.
 

@@ -32,6 +32,8 @@ class PlannerSettings(BaseSettings):
     descent_speed_mps: float = 0.5
     touchdown_height_m: float = 0.12
     hold_clear_s: float = 0.5
+    #: yaw rate while holding and descending, so the forward-down camera sees all around
+    scan_yaw_rate_rps: float = 0.6
     #: perception
     blob_stride: int = 2
     max_range_m: float = 30.0

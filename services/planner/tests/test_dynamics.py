@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from llmland_planner.dynamics import ModelParams, f, jacobians, linearize_discrete, step
 
 PRM = ModelParams(drag_per_s=0.1)
@@ -29,8 +28,8 @@ def test_jacobians_match_central_differences() -> None:
     for _ in range(5):
         x, u = _random_point()
         a_c, b_c = jacobians(x, u, PRM)
-        np.testing.assert_allclose(a_c, _fd(lambda z: f(z, u, PRM), x), atol=1e-7, rtol=1e-5)
-        np.testing.assert_allclose(b_c, _fd(lambda z: f(x, z, PRM), u), atol=1e-7, rtol=1e-5)
+        np.testing.assert_allclose(a_c, _fd(lambda z, u=u: f(z, u, PRM), x), atol=1e-7, rtol=1e-5)
+        np.testing.assert_allclose(b_c, _fd(lambda z, x=x: f(x, z, PRM), u), atol=1e-7, rtol=1e-5)
 
 
 def test_discrete_jacobians_match_rk4_step() -> None:
@@ -38,8 +37,8 @@ def test_discrete_jacobians_match_rk4_step() -> None:
     for _ in range(5):
         x, u = _random_point()
         a_d, b_d, c_d = linearize_discrete(x, u, dt, PRM)
-        np.testing.assert_allclose(a_d, _fd(lambda z: step(z, u, dt, PRM), x), atol=1e-7, rtol=1e-5)
-        np.testing.assert_allclose(b_d, _fd(lambda z: step(x, z, dt, PRM), u), atol=1e-7, rtol=1e-5)
+        np.testing.assert_allclose(a_d, _fd(lambda z, u=u: step(z, u, dt, PRM), x), atol=1e-7, rtol=1e-5)
+        np.testing.assert_allclose(b_d, _fd(lambda z, x=x: step(x, z, dt, PRM), u), atol=1e-7, rtol=1e-5)
         np.testing.assert_allclose(a_d @ x + b_d @ u + c_d, step(x, u, dt, PRM), atol=1e-12)
 
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from llmland_planner.regions import UnsafeRegion, from_obstacle, segments_hit_boxes
 from llmland_planner.search import Path, SearchConfig, penalty, plan, resample
 

@@ -47,8 +47,8 @@ class KbEntry(BaseModel):
             raise ValueError(f"{self.id}: a human is always dynamic")
         if self.is_human and self.buffer_m < 3.0:
             raise ValueError(f"{self.id}: a human needs a buffer of at least 3 m (paper default)")
-        if self.category == "vehicle" and self.buffer_m < 5.0:
-            raise ValueError(f"{self.id}: a vehicle needs a buffer of at least 5 m (paper default)")
+        if self.category == "vehicle" and self.is_dynamic and self.buffer_m < 5.0:
+            raise ValueError(f"{self.id}: a moving vehicle needs a buffer of at least 5 m (paper default)")
         return self
 
     def chunk_text(self) -> str:

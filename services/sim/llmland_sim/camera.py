@@ -6,6 +6,11 @@ optical frame (``x`` right, ``y`` down, ``z`` forward); ``T_world_camera`` (4×4
 frame points into the world. Pixel ``(u, v)`` = (column, row), row 0 at the top, pixel
 centres at integer coordinates, so ``u = fx * x / z + cx`` with ``cx = (W - 1) / 2``.
 
+Pixel grids differ between renderers and the intrinsics account for it: OpenGL/EGL samples
+pixel centres (``cx = (W - 1) / 2``, ``cy = (H - 1) / 2``), pybullet's TinyRenderer samples
+pixel corners (``cx = W / 2``, ``cy = H / 2 - 1``); using the wrong one tilts back-projected
+rays by half a pixel (≈ 8 cm height error on the ground at 50 m for 384 px / 90°).
+
 Renderers:
 
 * ``"tiny"``: pybullet's CPU TinyRenderer (≈ 40 ms at 384×384); float32 depth buffer.
@@ -31,15 +36,18 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import pybullet as p
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
+#: A point / vector / quaternion given as a sequence or a numpy array.
+VecLike = Sequence[float] | NDArray[Any]
 
 #: Colour given to background pixels (nothing within the far plane), RGB uint8.
 SKY_RGB = (185, 210, 235)
@@ -114,25 +122,45 @@ def _quiet_c_stdout() -> Iterator[None]:
     """Silence C-level writes to fd 1 (the EGL plugin prints its GL info there)."""
     try:
         sys.stdout.flush()
-        fd = sys.stdout.fileno()
     except (AttributeError, OSError, ValueError):
-        fd = 1
+        pass
+    fd = 1  # C code writes to fd 1 whatever Python's sys.stdout is
     libc = None
     try:
         libc = ctypes.CDLL(None)
-    except OSError:
-        pass
-    saved = os.dup(fd)
+        saved = os.dup(fd)
+    except OSError:  # no libc handle or no fd 1: nothing to silence
+        yield
+        return
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, fd)
         yield
     finally:
-        if libc is not None:
-            libc.fflush(None)
+        libc.fflush(None)
         os.dup2(saved, fd)
         os.close(saved)
         os.close(devnull)
+
+
+def _egl_active(client: int) -> bool:
+    """True when the EGL plugin renders for ``client`` (its clear colour differs from tiny's white).
+
+    Renders a 2×2 image looking up into empty sky (≈ 0.1 ms without the plugin).
+    """
+    view = p.computeViewMatrix([0, 0, 1e4], [0, 0, 2e4], [1, 0, 0])
+    proj = p.computeProjectionMatrixFOV(10, 1, 0.1, 1.0)
+    img = p.getCameraImage(
+        2,
+        2,
+        view,
+        proj,
+        renderer=p.ER_BULLET_HARDWARE_OPENGL,
+        flags=p.ER_NO_SEGMENTATION_MASK,
+        physicsClientId=client,
+    )
+    px = np.asarray(img[2], dtype=np.uint8).reshape(-1, 4)[0, :3]
+    return bool(np.any(px != 255))
 
 
 def prepare_renderer(client: int, renderer: str = "auto") -> str:
@@ -142,16 +170,22 @@ def prepare_renderer(client: int, renderer: str = "auto") -> str:
     (once; it must happen before any body is created) and return ``"egl"``; ``"auto"``
     falls back to ``"tiny"`` when EGL is unavailable or bodies already exist, ``"egl"`` raises
     ``RuntimeError`` instead. A GUI client renders with its own OpenGL context: ``"opengl"``.
+    The environment variable ``LLMLAND_RENDERER=tiny|egl`` overrides ``"auto"``.
     """
     if renderer not in ("auto", "tiny", "egl"):
         raise ValueError(f"renderer must be 'auto', 'tiny' or 'egl', got {renderer!r}")
+    if renderer == "auto":
+        env = os.environ.get("LLMLAND_RENDERER", "").strip().lower()
+        if env in ("tiny", "egl"):
+            renderer = env
     if renderer == "tiny":
         return "tiny"
-    if client in _EGL_PLUGIN_BY_CLIENT:
-        return "egl"
     info = p.getConnectionInfo(physicsClientId=client)
     if info.get("connectionMethod") == p.GUI:
         return "opengl"
+    if _egl_active(client):  # loaded earlier (by us or by the caller)
+        return "egl"
+    _EGL_PLUGIN_BY_CLIENT.pop(client, None)  # stale entry of a disconnected client with this id
     n_bodies = p.getNumBodies(physicsClientId=client)
     reason = ""
     if n_bodies > 0:
@@ -161,17 +195,10 @@ def prepare_renderer(client: int, renderer: str = "auto") -> str:
     else:
         path = _egl_plugin_path()
         assert path is not None
-        with _quiet_c_stdout():
+        with _quiet_c_stdout():  # the plugin prints GL info on load and first render
             plugin = int(p.loadPlugin(path, "_eglRendererPlugin", physicsClientId=client))
-            if plugin >= 0:  # first render prints GL info; do it while stdout is silenced
-                p.getCameraImage(
-                    1,
-                    1,
-                    renderer=p.ER_BULLET_HARDWARE_OPENGL,
-                    flags=p.ER_NO_SEGMENTATION_MASK,
-                    physicsClientId=client,
-                )
-        if plugin >= 0:
+            active = plugin >= 0 and _egl_active(client)
+        if active:
             _EGL_PLUGIN_BY_CLIENT[client] = plugin
             logger.info("EGL renderer plugin loaded into client %d (%s)", client, egl_info())
             return "egl"
@@ -192,7 +219,7 @@ def release_renderer(client: int) -> None:
 # --------------------------------------------------------------------------- geometry
 
 
-def quat_to_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
+def quat_to_matrix(quat_xyzw: VecLike) -> FloatArray:
     """Rotation matrix (3, 3) of a unit quaternion ``(x, y, z, w)``."""
     x, y, z, w = (float(v) for v in quat_xyzw)
     n = math.sqrt(x * x + y * y + z * z + w * w)
@@ -210,7 +237,11 @@ def quat_to_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
 
 @dataclass(frozen=True)
 class CameraIntrinsics:
-    """Pinhole intrinsics in pixels (pixel centres at integer coordinates)."""
+    """Pinhole intrinsics in pixels: ``u = fx * x / z + cx``, ``v = fy * y / z + cy``.
+
+    ``(u, v)`` are the integer column / row indices of the pixel whose sample ray is
+    ``((u - cx) / fx, (v - cy) / fy, 1)`` in the optical frame.
+    """
 
     fx: float
     fy: float
@@ -221,7 +252,7 @@ class CameraIntrinsics:
 
     @classmethod
     def from_hfov(cls, width: int, height: int, hfov_deg: float) -> CameraIntrinsics:
-        """Square-pixel intrinsics for a horizontal field of view ``hfov_deg``."""
+        """Square-pixel intrinsics for a horizontal field of view ``hfov_deg``, centred pixels."""
         fx = 0.5 * width / math.tan(math.radians(hfov_deg) / 2.0)
         return cls(fx, fx, (width - 1) / 2.0, (height - 1) / 2.0, width, height)
 
@@ -240,12 +271,12 @@ class CameraIntrinsics:
         """Vertical field of view (deg), what ``computeProjectionMatrixFOV`` takes."""
         return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
 
-    def project(self, points_cam: FloatArray) -> FloatArray:
+    def project(self, points_cam: ArrayLike) -> FloatArray:
         """Pixel coordinates (N, 2) ``(u, v)`` of optical-frame points (N, 3) with ``z > 0``."""
         pts = np.atleast_2d(np.asarray(points_cam, dtype=float))
         return np.stack([self.fx * pts[:, 0] / pts[:, 2] + self.cx, self.fy * pts[:, 1] / pts[:, 2] + self.cy], 1)
 
-    def backproject(self, u: FloatArray | float, v: FloatArray | float, depth_m: FloatArray | float) -> FloatArray:
+    def backproject(self, u: ArrayLike, v: ArrayLike, depth_m: ArrayLike) -> FloatArray:
         """Optical-frame points (..., 3) at pixels ``(u, v)`` with z-depth ``depth_m``."""
         z = np.asarray(depth_m, dtype=float)
         x = (np.asarray(u, dtype=float) - self.cx) / self.fx * z
@@ -312,6 +343,9 @@ class RgbdCamera:
         mount_offset_m: camera centre in the body frame (FLU, m).
         near, far: clipping planes (m); depth beyond ``far`` is ``inf``.
         renderer: ``"auto"``, ``"tiny"`` or ``"egl"`` (see the module docstring).
+        shadows: cast shadows (off by default: EGL shadow maps show acne on the thin ground
+            decorations and the TinyRenderer gets slower).
+        light_direction: direction towards the light, world frame (unit-less).
     """
 
     def __init__(
@@ -325,17 +359,27 @@ class RgbdCamera:
         near: float = 0.1,
         far: float = 60.0,
         renderer: str = "auto",
+        shadows: bool = False,
+        light_direction: Sequence[float] = (0.4, 0.3, 1.0),
     ) -> None:
         if not 0.0 < near < far:
             raise ValueError("need 0 < near < far")
         if not 0.0 < hfov_deg < 180.0:
             raise ValueError("hfov_deg must be in (0, 180)")
         self.client = client
-        self.intrinsics = CameraIntrinsics.from_hfov(int(width), int(height), hfov_deg)
         self.pitch_down_deg = float(pitch_down_deg)
         self.near = float(near)
         self.far = float(far)
+        self.shadows = bool(shadows)
+        self.light_direction = [float(v) for v in light_direction]
         self.renderer = prepare_renderer(client, renderer)
+        if self.renderer == "tiny" and _egl_active(client):
+            logger.info("client %d has the EGL plugin: pybullet serves 'tiny' requests with EGL", client)
+            self.renderer = "egl"
+        intr = CameraIntrinsics.from_hfov(int(width), int(height), hfov_deg)
+        if self.renderer == "tiny":  # TinyRenderer samples pixel corners (measured, see module doc)
+            intr = replace(intr, cx=width / 2.0, cy=height / 2.0 - 1.0)
+        self.intrinsics = intr
         self._pb_renderer = p.ER_TINY_RENDERER if self.renderer == "tiny" else p.ER_BULLET_HARDWARE_OPENGL
         self._proj = list(
             p.computeProjectionMatrixFOV(
@@ -362,7 +406,7 @@ class RgbdCamera:
             self.renderer,
         )
 
-    def camera_pose(self, pos_m: Sequence[float], quat_xyzw: Sequence[float]) -> FloatArray:
+    def camera_pose(self, pos_m: VecLike, quat_xyzw: VecLike) -> FloatArray:
         """``T_world_camera`` (4, 4) for a body at ``pos_m`` (3,) with attitude ``quat_xyzw``."""
         t_wb = np.eye(4)
         t_wb[:3, :3] = quat_to_matrix(quat_xyzw)
@@ -378,7 +422,7 @@ class RgbdCamera:
         view[:3, 3] = -r_wgl.T @ T_world_camera[:3, 3]
         return [float(v) for v in view.T.ravel()]
 
-    def render(self, pos_m: Sequence[float], quat_xyzw: Sequence[float], with_seg: bool = True) -> CameraRender:
+    def render(self, pos_m: VecLike, quat_xyzw: VecLike, with_seg: bool = True) -> CameraRender:
         """Render RGB, metric depth and (optionally) segmentation for the given body pose."""
         intr = self.intrinsics
         w, h = intr.width, intr.height
@@ -392,6 +436,8 @@ class RgbdCamera:
             projectionMatrix=self._proj,
             renderer=self._pb_renderer,
             flags=flags,
+            shadow=int(self.shadows),
+            lightDirection=self.light_direction,
             physicsClientId=self.client,
         )
         dt = time.perf_counter() - t0

@@ -22,13 +22,14 @@ from llmland_schemas import (
     TruthObject,
     VehicleState,
     encode_frame,
+    vec3,
 )
 
 from .camera import RgbdCamera
 from .scoring import EpisodeScore
 from .settings import SimSettings
-from .vehicle import DEFAULT_PARAMS, Quadrotor, QuadParams, ReferencePositionController
-from .world import World, build_world
+from .vehicle import DEFAULT_PARAMS, QuadParams, Quadrotor, ReferencePositionController
+from .world import World, WorldObject, build_world
 
 log = logging.getLogger(__name__)
 
@@ -179,10 +180,9 @@ class Simulation:
             self.done = True
 
     @staticmethod
-    def _base_of(obj: object) -> np.ndarray:
-        centre = np.asarray(obj.position(), dtype=float)  # type: ignore[attr-defined]
-        size = obj.size_m  # type: ignore[attr-defined]
-        return centre - np.array([0.0, 0.0, size[2] / 2.0])
+    def _base_of(obj: WorldObject) -> np.ndarray:
+        centre = np.asarray(obj.position(), dtype=np.float64)
+        return centre - np.array([0.0, 0.0, obj.size_m[2] / 2.0])
 
     # ------------------------------------------------------------------ messages
     def vehicle_state(self) -> VehicleState:
@@ -193,11 +193,11 @@ class Simulation:
             drone_id=self.settings.drone_id,
             stamp=self.t_s,
             seq=self.seq,
-            position_m=tuple(st.pos_m),
-            velocity_mps=tuple(st.vel_mps),
+            position_m=vec3(st.pos_m),
+            velocity_mps=vec3(st.vel_mps),
             quat_xyzw=tuple(st.quat_xyzw),
-            euler_rpy_rad=tuple(st.euler_rpy_rad),
-            body_rates_rps=tuple(st.body_rates_rps),
+            euler_rpy_rad=vec3(st.euler_rpy_rad),
+            body_rates_rps=vec3(st.body_rates_rps),
             on_ground=bool(height < TOUCHDOWN_HEIGHT_M),
             collided=bool(self.score and self.score.collisions),
             episode_id=self.mission.episode_id,
@@ -217,7 +217,7 @@ class Simulation:
             height=k.height,
             intrinsics=CameraIntrinsics(fx=k.fx, fy=k.fy, cx=k.cx, cy=k.cy, width=k.width, height=k.height),
             T_world_camera=[float(x) for x in np.asarray(r.T_world_camera).reshape(-1)],
-            vehicle_position_m=tuple(st.pos_m),
+            vehicle_position_m=vec3(st.pos_m),
             episode_id=self.mission.episode_id,
         )
         return encode_frame(header, r.rgb, r.depth_m.astype(np.float32))
@@ -230,9 +230,9 @@ class Simulation:
                 TruthObject(
                     obj_id=o.obj_id,
                     cls=o.cls,
-                    position_m=tuple(float(x) for x in o.position()),
-                    velocity_mps=tuple(float(x) for x in o.velocity()),
-                    size_m=tuple(float(x) for x in o.size_m),
+                    position_m=vec3(o.position()),
+                    velocity_mps=vec3(o.velocity()),
+                    size_m=vec3(o.size_m),
                     dynamic=o.dynamic,
                     is_person=o.cls == "person",
                 )
@@ -242,7 +242,7 @@ class Simulation:
             stamp=self.t_s,
             seq=self.seq,
             world=self.world.name,
-            target_m=tuple(float(x) for x in self.world.target_m),
+            target_m=vec3(self.world.target_m),
             objects=objs,
             episode_id=self.mission.episode_id,
         )
@@ -263,7 +263,7 @@ class Simulation:
             clock=self.mission.clock,
             success=success,
             outcome=outcome,  # type: ignore[arg-type]
-            touchdown_m=tuple(float(x) for x in td) if td is not None else None,
+            touchdown_m=vec3(td) if td is not None else None,
             touchdown_error_m=self.score.touchdown_error_m,
             time_to_land_s=self.score.touchdown_t_s,
             min_person_distance_m={k: round(v, 4) for k, v in self.score.min_person_distance_m.items()},

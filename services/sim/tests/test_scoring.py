@@ -1,7 +1,7 @@
 import numpy as np
+from llmland_schemas import ControlCommand
 from llmland_sim.mailbox import CommandMailbox
 from llmland_sim.scoring import EpisodeScore, distance_to_person
-from llmland_schemas import ControlCommand
 
 
 def test_distance_to_person_axis():

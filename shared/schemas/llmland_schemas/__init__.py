@@ -27,6 +27,7 @@ from .messages import (
     TruthObject,
     UnsafeBox,
     VehicleState,
+    vec3,
 )
 
 __all__ = [
@@ -67,4 +68,5 @@ __all__ = [
     "encode",
     "encode_frame",
     "key",
+    "vec3",
 ]

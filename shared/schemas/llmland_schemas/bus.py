@@ -28,6 +28,7 @@ from .codec import MessageError, decode, encode
 
 log = logging.getLogger(__name__)
 M = TypeVar("M", bound=BaseModel)
+T = TypeVar("T")
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 
@@ -121,7 +122,7 @@ class Bus:
         self.subscribe_parsed(key, parse, callback)
 
     def subscribe_parsed(
-        self, key: str, parse: Callable[[bytes], M], callback: Callable[[str, M], None]
+        self, key: str, parse: Callable[[bytes], T], callback: Callable[[str, T], None]
     ) -> None:
         """Subscribe with a custom parser; parse errors are logged, counted and dropped."""
 
@@ -129,7 +130,7 @@ class Bus:
             k = str(sample.key_expr)
             self.received[k] += 1
             try:
-                msg = parse(sample.payload.to_bytes())
+                msg: T = parse(sample.payload.to_bytes())
             except (MessageError, ValueError) as exc:
                 self.dropped[k] += 1
                 log.warning("dropped malformed message on %s (%d so far): %s", k, self.dropped[k], exc)

@@ -9,6 +9,7 @@ validation instead of reaching a controller.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, NonNegativeInt
@@ -23,6 +24,12 @@ Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 Quat = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
 NonNegFloat = Annotated[FiniteFloat, Field(ge=0.0)]
 DroneId = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]{1,64}$")]
+
+
+def vec3(values: Iterable[float]) -> tuple[float, float, float]:
+    """Three floats from any iterable (numpy arrays included)."""
+    x, y, z = (float(v) for v in values)
+    return (x, y, z)
 
 
 class Strict(BaseModel):

@@ -31,6 +31,8 @@ from numpy.typing import NDArray
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
+#: A point / vector given as a sequence or a numpy array.
+VecLike = Sequence[float] | NDArray[np.float64]
 #: Ground height ``z = f(x, y)`` in metres.
 GroundFn = Callable[[float, float], float]
 #: ``True`` when a person may stand at ``(x, y)`` (no static obstacle there).
@@ -68,7 +70,7 @@ class WalkRegion:
     b_xy: tuple[float, float]
     radius_m: float
 
-    def distance_to_axis(self, xy: Sequence[float]) -> float:
+    def distance_to_axis(self, xy: VecLike) -> float:
         """Distance (m) from ``xy`` to the capsule's axis segment."""
         a = np.asarray(self.a_xy, dtype=float)
         d = np.asarray(self.b_xy, dtype=float) - a
@@ -77,7 +79,7 @@ class WalkRegion:
         t = 0.0 if dd <= 0.0 else float(np.clip((q @ d) / dd, 0.0, 1.0))
         return float(np.linalg.norm(q - t * d))
 
-    def contains(self, xy: Sequence[float], margin_m: float = 0.0) -> bool:
+    def contains(self, xy: VecLike, margin_m: float = 0.0) -> bool:
         """True when ``xy`` lies inside the capsule shrunk by ``margin_m``."""
         return self.distance_to_axis(xy) <= self.radius_m - margin_m
 
@@ -92,7 +94,7 @@ class WalkRegion:
                 return np.asarray(q, dtype=float)
         return 0.5 * (np.asarray(self.a_xy, dtype=float) + np.asarray(self.b_xy, dtype=float))
 
-    def project(self, xy: Sequence[float], margin_m: float = 0.0) -> FloatArray:
+    def project(self, xy: VecLike, margin_m: float = 0.0) -> FloatArray:
         """Closest point (2,) of the capsule shrunk by ``margin_m`` to ``xy``."""
         a = np.asarray(self.a_xy, dtype=float)
         d = np.asarray(self.b_xy, dtype=float) - a
@@ -146,7 +148,7 @@ class KinematicActor(ABC):
             raise ValueError("dt_s must be non-negative")
         self._t_s += dt_s
         h = INTERNAL_DT_S
-        while self._t_s >= (self._k + 1) * h - 1e-12:
+        while self._t_s >= (self._k + 1) * h - 1e-9:
             self._k += 1
             self._prev = self._next
             self._next = np.asarray(self._advance(h), dtype=float)
@@ -207,7 +209,7 @@ class Pedestrian(KinematicActor):
       taken when the straight walk to it stays on free ground (``is_free``);
     * walking speed is drawn in [0.6, 1.4] m/s per leg and changes now and then (always
       within 0.5–1.5 m/s while walking, ramping at ≤ 0.8 m/s²);
-    * heading turns smoothly (≤ 1.2 rad/s while walking); for turns larger than 90° the
+    * heading turns smoothly (≤ 1.2 rad/s while walking); for turns larger than 120° the
       person first turns in place (≤ 1.8 rad/s) — speed 0;
     * pauses at goals (35 %, 1–5 s) and occasionally mid-walk; changes goal at random
       (≈ every 15 s on average) — unpredictable for a tracker;
@@ -217,6 +219,7 @@ class Pedestrian(KinematicActor):
 
     WALK_TURN_RATE_RPS = 1.2
     INPLACE_TURN_RATE_RPS = 1.8
+    TURN_IN_PLACE_RAD = 2.0 * math.pi / 3.0
     ACCEL_MPS2 = 0.8
     GOAL_REACHED_M = 0.4
     GOAL_MARGIN_M = 0.8
@@ -230,8 +233,8 @@ class Pedestrian(KinematicActor):
         rng: np.random.Generator,
         region: WalkRegion,
         *,
-        start_xy: Sequence[float] | None = None,
-        target_xy: Sequence[float] | None = None,
+        start_xy: VecLike | None = None,
+        target_xy: VecLike | None = None,
         target_prob: float = 0.25,
         is_free: FreeFn | None = None,
         ground_height: GroundFn | None = None,
@@ -317,7 +320,7 @@ class Pedestrian(KinematicActor):
             self._timer_s = float(self.rng.uniform(0.5, 2.0))
             return
         err = self._heading_error()
-        self._mode = PedMode.TURN if abs(err) > math.pi / 2.0 else PedMode.WALK
+        self._mode = PedMode.TURN if abs(err) > self.TURN_IN_PLACE_RAD else PedMode.WALK
         if self._mode is PedMode.WALK:
             self._speed = max(self._speed, PED_SPEED_RANGE_MPS[0])
 
@@ -359,7 +362,7 @@ class Pedestrian(KinematicActor):
         rng = self.rng
         # random events (unpredictable behaviour)
         if rng.uniform() < self.GOAL_CHANGE_RATE_HZ * h_s:
-            if self._choose_goal() and abs(self._heading_error()) > math.pi / 2.0:
+            if self._choose_goal() and abs(self._heading_error()) > self.TURN_IN_PLACE_RAD:
                 self._mode = PedMode.TURN
                 return False
         if rng.uniform() < self.MID_PAUSE_RATE_HZ * h_s:
@@ -369,7 +372,7 @@ class Pedestrian(KinematicActor):
         if rng.uniform() < self.SPEED_CHANGE_RATE_HZ * h_s:
             self._speed_pref = self._draw_speed()
         err = self._turn_towards(self.WALK_TURN_RATE_RPS, h_s)
-        if abs(err) > 2.0 * math.pi / 3.0:  # circling around a close goal: stop and turn
+        if abs(err) > self.TURN_IN_PLACE_RAD:  # e.g. circling around a close goal: stop and turn
             self._mode = PedMode.TURN
             return False
         dv = float(np.clip(self._speed_pref - self._speed, -self.ACCEL_MPS2 * h_s, self.ACCEL_MPS2 * h_s))
@@ -481,6 +484,7 @@ class Vehicle(KinematicActor):
         self._s = float(rng.uniform(0.0, loop.perimeter_m)) if start_s_m is None else float(start_s_m)
         self._cruise = float(rng.uniform(*VEH_SPEED_RANGE_MPS))
         self._speed = self._allowed(self._cruise)
+        self._seg_speed = self._speed
         x, y, yaw = loop.pose_at(self._s)
         self._start(x, y, yaw)
 
@@ -506,4 +510,11 @@ class Vehicle(KinematicActor):
         dv = float(np.clip(target - self._speed, -self.BRAKE_MPS2 * h_s, self.ACCEL_MPS2 * h_s))
         self._speed = float(np.clip(self._speed + dv, *VEH_SPEED_RANGE_MPS))
         self._s = (self._s + self._speed * h_s) % self.loop.perimeter_m
+        self._seg_speed = self._speed
         return self.loop.pose_at(self._s)
+
+    def velocity(self) -> FloatArray:
+        """World-frame velocity (3,) in m/s: current speed along the current heading."""
+        _, yaw = self.pose()
+        vz = super().velocity()[2]
+        return np.array([self._seg_speed * math.cos(yaw), self._seg_speed * math.sin(yaw), vz])

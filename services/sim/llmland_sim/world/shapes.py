@@ -37,6 +37,8 @@ logger = logging.getLogger(__name__)
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 Rgba = tuple[float, float, float, float]
+#: A point / vector given as a sequence or a numpy array.
+VecLike = Sequence[float] | NDArray[np.float64]
 
 IDENTITY_QUAT: Quat = (0.0, 0.0, 0.0, 1.0)
 #: Most shapes pybullet accepts in one createVisualShapeArray / createCollisionShapeArray.
@@ -44,6 +46,10 @@ MAX_SHAPES_PER_ARRAY = 16
 
 #: Person height used by :func:`create_person` by default (m).
 PERSON_HEIGHT_M = 1.7
+#: How far roof / windows / door of a building stick out of its walls (m).
+BUILDING_OVERHANG_M = 0.06
+#: How far a vehicle's lights stick out of its nominal length (m, each end).
+VEHICLE_OVERHANG_M = 0.03
 #: Default car extents (length, width, height) in metres.
 CAR_SIZE_M: Vec3 = (4.3, 1.8, 1.5)
 #: Default van extents (length, width, height) in metres.
@@ -102,11 +108,11 @@ _SIDEWALK: Rgba = (0.62, 0.61, 0.58, 1.0)
 _BARK: Rgba = (0.36, 0.25, 0.15, 1.0)
 
 
-def _rgba(rgb: Sequence[float], alpha: float = 1.0) -> Rgba:
+def _rgba(rgb: VecLike, alpha: float = 1.0) -> Rgba:
     return (float(rgb[0]), float(rgb[1]), float(rgb[2]), alpha)
 
 
-def _jitter(rng: np.random.Generator, rgb: Sequence[float], amount: float = 0.06) -> Rgba:
+def _jitter(rng: np.random.Generator, rgb: VecLike, amount: float = 0.06) -> Rgba:
     """Colour ``rgb`` with each channel shifted by ``U(-amount, amount)`` (clipped to [0, 1])."""
     c = np.clip(np.asarray(rgb, dtype=float) + rng.uniform(-amount, amount, 3), 0.0, 1.0)
     return _rgba(c)
@@ -175,7 +181,7 @@ def capsule(pos: Vec3, radius: float, length: float, rgba: Rgba, collide: bool =
 def create_compound(
     client: int,
     parts: Sequence[Part],
-    position_m: Sequence[float],
+    position_m: VecLike,
     yaw_rad: float = 0.0,
     collision_parts: Sequence[Part] | None = None,
 ) -> int:
@@ -301,7 +307,7 @@ def create_textured_mesh_body(
     faces: NDArray[np.int64],
     texture_rgb: NDArray[np.uint8],
     collision_shape: int,
-    base_position_m: Sequence[float],
+    base_position_m: VecLike,
 ) -> int:
     """Mass-0 body with a textured triangle-mesh visual; returns the body id.
 
@@ -337,9 +343,7 @@ def create_textured_mesh_body(
         if vis < 0:
             raise RuntimeError("pybullet failed to create a textured mesh visual")
         body = int(
-            p.createMultiBody(
-                0.0, collision_shape, vis, [float(v) for v in base_position_m], physicsClientId=client
-            )
+            p.createMultiBody(0.0, collision_shape, vis, [float(v) for v in base_position_m], physicsClientId=client)
         )
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
@@ -358,16 +362,19 @@ def create_ground(client: int, rng: np.random.Generator, z_m: float = 0.0, half_
     """
     h = half_size_m
     thick = 5.0
-    verts = np.array([[h, -h, thick], [h, h, thick], [-h, h, thick], [-h, -h, thick]])
+    n = max(1, int(math.ceil(2.0 * h / 20.0)))  # 20 m tiles: cheaper for the TinyRenderer
+    xs = np.linspace(-h, h, n + 1)
+    gx, gy = np.meshgrid(xs, xs)
+    verts = np.stack([gx.ravel(), gy.ravel(), np.full(gx.size, thick)], axis=1)
     uvs = (verts[:, :2] + h) / GRASS_TILE_M
-    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    ii, jj = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    v00 = (ii * (n + 1) + jj).ravel()
+    faces = np.concatenate([np.stack([v00, v00 + 1, v00 + n + 1], 1), np.stack([v00 + 1, v00 + n + 2, v00 + n + 1], 1)])
     col = p.createCollisionShape(p.GEOM_BOX, halfExtents=[h, h, thick], physicsClientId=client)
     return create_textured_mesh_body(client, verts, uvs, faces, grass_image(rng), col, (0.0, 0.0, z_m - thick))
 
 
-def create_heightfield(
-    client: int, rng: np.random.Generator, heights_m: NDArray[np.float64], cell_m: float
-) -> int:
+def create_heightfield(client: int, rng: np.random.Generator, heights_m: NDArray[np.float64], cell_m: float) -> int:
     """Grass-textured heightfield terrain centred on the world origin.
 
     Args:
@@ -410,7 +417,7 @@ def create_heightfield(
 def create_person(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float] = (0.0, 0.0, 0.0),
+    position_m: VecLike = (0.0, 0.0, 0.0),
     yaw_rad: float = 0.0,
     height_m: float = PERSON_HEIGHT_M,
 ) -> int:
@@ -442,7 +449,7 @@ def create_person(
 def create_car(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     yaw_rad: float = 0.0,
     kind: str = "car",
 ) -> int:
@@ -468,10 +475,15 @@ def create_car(
     roof_t = 0.06
     cab_h = height - body_top - roof_t
     parts.append(box((cabin_x, 0.0, body_top + cab_h / 2.0), (cabin_len / 2.0, hw - 0.08, cab_h / 2.0), _GLASS))
-    parts.append(box((cabin_x, 0.0, height - roof_t / 2.0), (cabin_len / 2.0, hw - 0.06, roof_t / 2.0), paint))
-    if kind == "van":  # pillars / body panels so the van does not look like a glass box
+    parts.append(box((cabin_x, 0.0, height - roof_t / 2.0), (cabin_len / 2.0 + 0.02, hw - 0.03, roof_t / 2.0), paint))
+    if kind == "van":  # rear body panels (under the roof) so the van is not a glass box
         parts.append(
-            box((cabin_x - 0.6, 0.0, body_top + cab_h / 2.0), (cabin_len / 2.0 - 0.6, hw - 0.05, cab_h / 2.0), paint)
+            box(
+                (cabin_x - 0.6, 0.0, body_top + cab_h / 2.0 - 0.01),
+                (cabin_len / 2.0 - 0.6, hw - 0.05, cab_h / 2.0 - 0.01),
+                paint,
+                collide=False,
+            )
         )
     wx = hl - 0.8
     for sx in (-1.0, 1.0):
@@ -481,8 +493,12 @@ def create_car(
             )
     light_z = body_top - 0.2
     for sy in (-1.0, 1.0):
-        parts.append(box((hl + 0.01, sy * (hw - 0.25), light_z), (0.02, 0.14, 0.06), (1.0, 0.97, 0.8, 1.0), collide=False))
-        parts.append(box((-hl - 0.01, sy * (hw - 0.25), light_z), (0.02, 0.14, 0.06), (0.8, 0.05, 0.05, 1.0), collide=False))
+        parts.append(
+            box((hl + 0.01, sy * (hw - 0.25), light_z), (0.02, 0.14, 0.06), (1.0, 0.97, 0.8, 1.0), collide=False)
+        )
+        parts.append(
+            box((-hl - 0.01, sy * (hw - 0.25), light_z), (0.02, 0.14, 0.06), (0.8, 0.05, 0.05, 1.0), collide=False)
+        )
     coll = [parts[0], parts[1]]
     return create_compound(client, parts, position_m, yaw_rad, collision_parts=coll)
 
@@ -493,16 +509,20 @@ def create_car(
 def create_building(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     size_m: Vec3,
     yaw_rad: float = 0.0,
 ) -> int:
-    """Block building ``size_m = (x, y, z)`` with roof slab, window bands and a door on +x."""
+    """Block building ``size_m = (x, y, z)`` with roof slab, window bands and a door on +x.
+
+    Roof, windows and door stick out up to :data:`BUILDING_OVERHANG_M` beyond the walls; the
+    roof slab adds 0.2 m of height.
+    """
     sx, sy, sz = size_m
     wall = _pick(rng, _BUILDING, 0.05)
     roof = _shade(wall, 0.6)
     parts: list[Part] = [box((0.0, 0.0, sz / 2.0), (sx / 2.0, sy / 2.0, sz / 2.0), wall)]
-    parts.append(box((0.0, 0.0, sz + 0.1), (sx / 2.0 + 0.15, sy / 2.0 + 0.15, 0.1), roof))
+    parts.append(box((0.0, 0.0, sz + 0.1), (sx / 2.0 + 0.05, sy / 2.0 + 0.05, 0.1), roof))
     floor_h = float(rng.uniform(2.9, 3.4))
     n_floors = max(1, int(sz / floor_h))
     for k in range(n_floors):
@@ -523,7 +543,7 @@ def create_building(
 def create_tree(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     trunk_height_m: float,
     crown_radius_m: float,
     conifer: bool = False,
@@ -536,7 +556,9 @@ def create_tree(
     """
     r = crown_radius_m
     trunk_r = float(np.clip(0.08 * r + 0.06, 0.1, 0.35))
-    parts: list[Part] = [cylinder((0.0, 0.0, trunk_height_m / 2.0), trunk_r, trunk_height_m, _jitter(rng, _BARK[:3], 0.04))]
+    parts: list[Part] = [
+        cylinder((0.0, 0.0, trunk_height_m / 2.0), trunk_r, trunk_height_m, _jitter(rng, _BARK[:3], 0.04))
+    ]
     if conifer:
         green = _jitter(rng, (0.10, 0.30, 0.14), 0.04)
         tiers = 4
@@ -580,7 +602,7 @@ def tree_footprint_radius(crown_radius_m: float, conifer: bool) -> float:
 def create_bush(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     lobes: Sequence[tuple[float, float, float, float]],
 ) -> int:
     """Bush made of sphere lobes ``(x, y, z, r)`` (m, base frame); lobes may sink into the ground."""
@@ -592,7 +614,7 @@ def create_bush(
 def create_shed(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     size_m: Vec3,
     yaw_rad: float = 0.0,
 ) -> int:
@@ -616,7 +638,12 @@ def create_shed(
         yc = sgn * run / 2.0
         zc = ridge_z - (run / 2.0) * math.tan(pitch) + 0.05
         parts.append(
-            box((0.0, yc, zc), (sx / 2.0 + 0.2, plate_w / 2.0, 0.05), roof, quat=_quat_axis((1.0, 0.0, 0.0), -sgn * pitch))
+            box(
+                (0.0, yc, zc),
+                (sx / 2.0 + 0.2, plate_w / 2.0, 0.05),
+                roof,
+                quat=_quat_axis((1.0, 0.0, 0.0), -sgn * pitch),
+            )
         )
     parts.append(box((sx / 2.0 + 0.02, 0.0, 0.95), (0.02, 0.45, 0.95), (0.15, 0.1, 0.07, 1.0), collide=False))
     return create_compound(client, parts, position_m, yaw_rad)
@@ -630,7 +657,7 @@ def shed_height(size_m: Vec3) -> float:
 def create_rock(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     lobes: Sequence[tuple[float, float, float, float]],
 ) -> int:
     """Grey rock made of sphere lobes ``(x, y, z, r)`` (m, base frame), partly buried."""
@@ -642,13 +669,15 @@ def create_rock(
 def create_crate(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     size_m: Vec3,
     yaw_rad: float = 0.0,
 ) -> int:
     """Box / crate ``size_m = (x, y, z)`` standing on the ground, wood or painted."""
     sx, sy, sz = size_m
-    colour = _jitter(rng, [(0.6, 0.45, 0.25), (0.25, 0.4, 0.6), (0.7, 0.65, 0.55), (0.5, 0.2, 0.15)][int(rng.integers(4))])
+    colour = _jitter(
+        rng, [(0.6, 0.45, 0.25), (0.25, 0.4, 0.6), (0.7, 0.65, 0.55), (0.5, 0.2, 0.15)][int(rng.integers(4))]
+    )
     parts = [
         box((0.0, 0.0, sz / 2.0), (sx / 2.0, sy / 2.0, sz / 2.0), colour),
         box((0.0, 0.0, sz + 0.01), (sx / 2.0 - 0.05, sy / 2.0 - 0.05, 0.01), _shade(colour, 0.75), collide=False),
@@ -662,7 +691,7 @@ def create_crate(
 def create_landing_pad(
     client: int,
     rng: np.random.Generator,
-    position_m: Sequence[float],
+    position_m: VecLike,
     radius_m: float = 1.0,
     marker: str = "H",
     yaw_rad: float = 0.0,
@@ -696,29 +725,54 @@ def create_landing_pad(
     return create_compound(client, parts, position_m, yaw_rad, collision_parts=[])
 
 
+def solid_image(rng: np.random.Generator, rgb: VecLike, grain: float = 0.04, size_px: int = 32) -> NDArray[np.uint8]:
+    """Tileable texture (size_px, size_px, 3) uint8 of colour ``rgb`` (0–1) with a fine grain."""
+    shade = 1.0 + grain * rng.standard_normal((size_px, size_px))
+    img = np.clip(np.asarray(rgb, dtype=float)[None, None, :3] * shade[..., None] * 255.0, 0, 255)
+    return img.astype(np.uint8)
+
+
 def create_flat_rects(
     client: int,
+    rng: np.random.Generator,
     rects: Sequence[tuple[float, float, float, float, float]],
     rgba: Rgba,
     top_z_m: float,
-    thickness_m: float = LAYER_M,
+    tile_m: float = 5.0,
 ) -> int:
-    """One visual-only body of flat rectangles ``(cx, cy, half_x, half_y, yaw)`` (m, rad).
+    """One visual-only body of flat, upward-facing rectangles ``(cx, cy, half_x, half_y, yaw)``.
 
-    Used for lane markings, parking lines and similar paint; tops at ``top_z_m``.
+    Used for asphalt, sidewalks, lane markings and parking lines (m, rad); the surface lies
+    at ``z = top_z_m``. Built as a tessellated mesh (tiles ≤ ``tile_m``) with a grainy
+    texture of colour ``rgba``: thin boxes this long make the TinyRenderer very slow.
     """
-    zc = top_z_m - thickness_m / 2.0
-    parts = [
-        box((cx, cy, zc), (hx, hy, thickness_m / 2.0), rgba, quat=_quat_yaw(yaw), collide=False)
-        for cx, cy, hx, hy, yaw in rects
-    ]
-    return create_compound(client, parts, (0.0, 0.0, 0.0), 0.0, collision_parts=[])
+    verts: list[tuple[float, float, float]] = []
+    faces: list[tuple[int, int, int]] = []
+    for cx, cy, hx, hy, yaw in rects:
+        nx = max(1, int(math.ceil(2.0 * hx / tile_m)))
+        ny = max(1, int(math.ceil(2.0 * hy / tile_m)))
+        ux = np.array([math.cos(yaw), math.sin(yaw)])
+        uy = np.array([-ux[1], ux[0]])
+        base = len(verts)
+        for i in range(ny + 1):
+            for j in range(nx + 1):
+                q = np.array([cx, cy]) + (-hx + 2.0 * hx * j / nx) * ux + (-hy + 2.0 * hy * i / ny) * uy
+                verts.append((float(q[0]), float(q[1]), top_z_m))
+        for i in range(ny):
+            for j in range(nx):
+                k = base + i * (nx + 1) + j
+                faces += [(k, k + 1, k + nx + 1), (k + 1, k + nx + 2, k + nx + 1)]
+    v = np.asarray(verts, dtype=float)
+    return create_textured_mesh_body(
+        client, v, v[:, :2] / GRASS_TILE_M, np.asarray(faces, dtype=np.int64), solid_image(rng, rgba), -1, (0, 0, 0)
+    )
 
 
 def create_street(
     client: int,
-    start_xy: Sequence[float],
-    end_xy: Sequence[float],
+    rng: np.random.Generator,
+    start_xy: VecLike,
+    end_xy: VecLike,
     width_m: float = 7.0,
     sidewalk_width_m: float = 2.5,
 ) -> list[int]:
@@ -743,13 +797,13 @@ def create_street(
         c = mid + along * u + across * n
         return (float(c[0]), float(c[1]), half_l, half_w, yaw)
 
-    bodies = [create_flat_rects(client, [rect(0.0, 0.0, length / 2.0, hw)], _ASPHALT, STREET_TOP_M)]
+    bodies = [create_flat_rects(client, rng, [rect(0.0, 0.0, length / 2.0, hw)], _ASPHALT, STREET_TOP_M)]
     sw = [rect(0.0, s * (hw + sidewalk_width_m / 2.0), length / 2.0, sidewalk_width_m / 2.0) for s in (-1.0, 1.0)]
-    bodies.append(create_flat_rects(client, sw, _SIDEWALK, SIDEWALK_TOP_M, SIDEWALK_TOP_M))
+    bodies.append(create_flat_rects(client, rng, sw, _SIDEWALK, SIDEWALK_TOP_M))
     lines = [rect(0.0, s * (hw - 0.2), length / 2.0, 0.06) for s in (-1.0, 1.0)]
     dash, gap = 3.0, 3.0
     n_dash = int(length // (dash + gap))
     start = -0.5 * n_dash * (dash + gap) + 0.5 * (dash + gap)
     lines += [rect(start + k * (dash + gap), 0.0, dash / 2.0, 0.06) for k in range(n_dash)]
-    bodies.append(create_flat_rects(client, lines, _WHITE, MARKING_TOP_M, MARKING_TOP_M - STREET_TOP_M))
+    bodies.append(create_flat_rects(client, rng, lines, _WHITE, MARKING_TOP_M))
     return bodies

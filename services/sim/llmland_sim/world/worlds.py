@@ -46,6 +46,8 @@ from llmland_sim.world.actors import (
 logger = logging.getLogger(__name__)
 
 FloatArray = NDArray[np.float64]
+#: A point / vector given as a sequence or a numpy array.
+VecLike = Sequence[float] | NDArray[np.float64]
 
 WORLD_NAMES = ("open_field", "urban", "forest_edge")
 OBJECT_CLASSES = ("person", "vehicle", "building", "tree", "bush", "shed", "rock", "pad")
@@ -58,6 +60,8 @@ _TARGET_PLACE_CLEARANCE_M = 3.0
 START_CLEARANCE_M = 2.0
 #: Minimum gap (m) between static obstacle footprints.
 OBSTACLE_GAP_M = 0.2
+#: Probability that a pedestrian near the flight path picks its next goal around the target.
+PATH_TARGET_PROB = 0.3
 #: Height (m) of the flat ground plane under the ``forest_edge`` terrain (and outside it).
 FOREST_BASE_Z_M = -0.02
 
@@ -96,7 +100,7 @@ class Footprint:
         c = np.asarray(self.center_xy, dtype=float)
         return np.array([c + sx * hx * ux + sy * hy * uy for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))])
 
-    def distance_to_point(self, xy: Sequence[float]) -> float:
+    def distance_to_point(self, xy: VecLike) -> float:
         """Horizontal distance (m) from ``xy`` to the footprint (0 inside)."""
         d = np.asarray(xy, dtype=float)[:2] - np.asarray(self.center_xy, dtype=float)
         if self.half_xy is None:
@@ -419,7 +423,7 @@ class _Builder:
         cls: str,
         body_id: int,
         size_m: tuple[float, float, float],
-        base_m: Sequence[float],
+        base_m: VecLike,
         yaw_rad: float,
         footprint: Footprint,
         ground_footprint: Footprint | None = None,
@@ -441,7 +445,7 @@ class _Builder:
 
     # ------------------------------------------------------------ placement of typical items
 
-    def sink_z(self, xy: Sequence[float], radius_m: float) -> float:
+    def sink_z(self, xy: VecLike, radius_m: float) -> float:
         """Base height for an object of radius ``radius_m`` at ``xy``: lowest ground point, −5 cm."""
         x, y = float(xy[0]), float(xy[1])
         pts = [(x, y)] + [
@@ -451,7 +455,7 @@ class _Builder:
         return min(zs) - (0.05 if max(zs) - min(zs) > 1e-6 else 0.0)
 
     def try_tree(
-        self, lay: _Layout, xy: FloatArray, conifer: bool, trunk_h: float, crown_r: float, gap_m: float = OBSTACLE_GAP_M
+        self, lay: _Layout, xy: VecLike, conifer: bool, trunk_h: float, crown_r: float, gap_m: float = OBSTACLE_GAP_M
     ) -> bool:
         fr = shapes.tree_footprint_radius(crown_r, conifer)
         fp = Footprint((float(xy[0]), float(xy[1])), fr)
@@ -521,7 +525,7 @@ class _Builder:
         self,
         lay: _Layout,
         cls: str,
-        xy: Sequence[float],
+        xy: VecLike,
         size_xy: tuple[float, float],
         height_m: float,
         yaw: float,
@@ -610,11 +614,11 @@ def _default_count(rng: np.random.Generator, lo: int, hi: int, override: int | N
 
 
 def _path_regions(
-    rng: np.random.Generator, n: int, start_xy: FloatArray, target_xy: FloatArray, radius_m: float
+    n: int, start_xy: FloatArray, target_xy: FloatArray, radius_m: float
 ) -> list[tuple[WalkRegion, float]]:
     """``n`` walk regions around the start→target segment (with target attraction)."""
     region = WalkRegion((float(start_xy[0]), float(start_xy[1])), (float(target_xy[0]), float(target_xy[1])), radius_m)
-    return [(region, float(rng.uniform(0.15, 0.4))) for _ in range(n)]
+    return [(region, PATH_TARGET_PROB) for _ in range(n)]
 
 
 # --------------------------------------------------------------------------- worlds
@@ -667,7 +671,7 @@ def _build_open_field(b: _Builder, n_pedestrians: int | None) -> World:
             if (b.try_crate if crate else b.try_rock)(lay, xy):
                 break
     n_ped = _default_count(rng, 1, 1, n_pedestrians)
-    b.add_pedestrians(_path_regions(rng, n_ped, start_xy, target_xy, 4.0), target_xy, lay)
+    b.add_pedestrians(_path_regions(n_ped, start_xy, target_xy, 4.0), target_xy, lay)
     return World(
         b.name,
         b.seed,
@@ -697,21 +701,19 @@ def _build_urban(b: _Builder, n_pedestrians: int | None) -> World:
 
     start_xy, alt = _sample_start(rng, target_xy, start_ok)
     b.surfaces.append(shapes.create_ground(client, b.crng))
-    b.surfaces += shapes.create_street(client, (-70.0, street_y), (70.0, street_y), 2 * street_half_w, sidewalk_w)
+    b.surfaces += shapes.create_street(
+        client, b.crng, (-70.0, street_y), (70.0, street_y), 2 * street_half_w, sidewalk_w
+    )
     # parking lot (asphalt) with the landing pad in one of its spots
     n_spots = 6
     lot_half_x = (n_spots + 0.5) * spot_w
     b.surfaces.append(
         shapes.create_flat_rects(
-            client, [(tx, ty, lot_half_x, lot_half_y, 0.0)], (0.26, 0.26, 0.28, 1.0), shapes.STREET_TOP_M
+            client, b.crng, [(tx, ty, lot_half_x, lot_half_y, 0.0)], (0.26, 0.26, 0.28, 1.0), shapes.STREET_TOP_M
         )
     )
     lines = [(tx + (k + 0.5) * spot_w, ty, 0.05, 2.5, 0.0) for k in range(-n_spots - 1, n_spots + 1)]
-    b.surfaces.append(
-        shapes.create_flat_rects(
-            client, lines, (0.92, 0.92, 0.92, 1.0), shapes.MARKING_TOP_M, shapes.MARKING_TOP_M - shapes.STREET_TOP_M
-        )
-    )
+    b.surfaces.append(shapes.create_flat_rects(client, b.crng, lines, (0.92, 0.92, 0.92, 1.0), shapes.MARKING_TOP_M))
     pad_r = float(rng.uniform(0.9, 1.15))
     marker = "H" if rng.uniform() < 0.7 else "cross"
     pad_body = shapes.create_landing_pad(client, b.crng, (tx, ty, shapes.STREET_TOP_M), pad_r, marker, math.pi / 2)
@@ -741,7 +743,8 @@ def _build_urban(b: _Builder, n_pedestrians: int | None) -> World:
         xy = (tx + k * spot_w + float(rng.uniform(-0.1, 0.1)), ty + float(rng.uniform(-0.15, 0.15)))
 
         make_car = partial(shapes.create_car, client, b.crng, yaw_rad=yaw, kind=kind)
-        b.try_box_object(lay, "vehicle", xy, (size[0], size[1]), size[2], yaw, make_car)
+        fp_xy = (size[0] + 2 * shapes.VEHICLE_OVERHANG_M, size[1])
+        b.try_box_object(lay, "vehicle", xy, fp_xy, size[2], yaw, make_car)
 
     def add_building_row(x0: float, x1: float, front_y: float, facing_north: bool) -> None:
         x = x0 + float(rng.uniform(0.0, 3.0))
@@ -754,7 +757,9 @@ def _build_urban(b: _Builder, n_pedestrians: int | None) -> World:
             cy = front_y + depth / 2 if not facing_north else front_y - depth / 2
             yaw = -math.pi / 2 if not facing_north else math.pi / 2
             make_building = partial(shapes.create_building, client, b.crng, size_m=(depth, width, height), yaw_rad=yaw)
-            b.try_box_object(lay, "building", (x + width / 2, cy), (depth, width), height, yaw, make_building, 0.5)
+            ov = 2 * shapes.BUILDING_OVERHANG_M
+            fp_xy = (depth + ov, width + ov)
+            b.try_box_object(lay, "building", (x + width / 2, cy), fp_xy, height + 0.2, yaw, make_building, 0.5)
             x += width + float(rng.uniform(1.0, 5.0))
 
     north_front = street_y + street_half_w + sidewalk_w + float(rng.uniform(0.5, 2.0))
@@ -770,24 +775,13 @@ def _build_urban(b: _Builder, n_pedestrians: int | None) -> World:
         crown_r = float(rng.uniform(1.2, 2.0))
         trunk_h = float(rng.uniform(2.2, 3.2))
         for _ in range(100):
-            xy = np.array([tx + rng.uniform(-plaza_half_x + 2, plaza_half_x - 2), rng.uniform(back_front + 2, curb_y - 2)])
-            if abs(xy[1] - ty) < lot_half_y + crown_r:
+            txy = np.array(
+                [tx + rng.uniform(-plaza_half_x + 2, plaza_half_x - 2), rng.uniform(back_front + 2, curb_y - 2)]
+            )
+            if abs(txy[1] - ty) < lot_half_y + crown_r:
                 continue
-            if b.try_tree(lay, xy, False, trunk_h, crown_r):
+            if b.try_tree(lay, txy, False, trunk_h, crown_r):
                 break
-
-    # pedestrians: one on the south sidewalk, the others around the flight path (not on the road)
-    n_ped = _default_count(rng, 2, 3, n_pedestrians)
-    sw_y = street_y - street_half_w - sidewalk_w / 2
-    regions: list[tuple[WalkRegion, float]] = []
-    if n_ped >= 1:
-        regions.append((WalkRegion((tx - 25.0, sw_y), (tx + 25.0, sw_y), sidewalk_w / 2 - 0.3), 0.0))
-    regions += _path_regions(rng, max(n_ped - 1, 0), start_xy, target_xy, 3.5)
-
-    def on_road(x: float, y: float) -> bool:
-        return abs(y - street_y) < street_half_w
-
-    b.add_pedestrians(regions, target_xy, lay, on_road)
 
     # driving cars: disjoint loops so they never drive through each other
     n_moving = int(rng.integers(1, 3))
@@ -795,6 +789,19 @@ def _build_urban(b: _Builder, n_pedestrians: int | None) -> World:
     spans = [(-55.0, 55.0)] if n_moving == 1 else [(-55.0, -3.0), (3.0, 55.0)]
     for j, (xa, xb) in enumerate(spans):
         b.add_vehicle_actor(LaneLoop((xa, street_y), (xb, street_y), lane), j)
+
+    # pedestrians: one on the south sidewalk, the others around the flight path (not on the road)
+    n_ped = _default_count(rng, 2, 3, n_pedestrians)
+    sw_y = street_y - street_half_w - sidewalk_w / 2
+    regions: list[tuple[WalkRegion, float]] = []
+    if n_ped >= 1:
+        regions.append((WalkRegion((tx - 25.0, sw_y), (tx + 25.0, sw_y), sidewalk_w / 2 - 0.3), 0.0))
+    regions += _path_regions(max(n_ped - 1, 0), start_xy, target_xy, 3.5)
+
+    def on_road(x: float, y: float) -> bool:
+        return abs(y - street_y) < street_half_w
+
+    b.add_pedestrians(regions, target_xy, lay, on_road)
 
     return World(
         b.name,
@@ -821,8 +828,8 @@ def _build_forest_edge(b: _Builder, n_pedestrians: int | None) -> World:
     spread = math.radians(70.0)
     start_xy, alt = _sample_start(rng, target_xy, lambda q: True, (meadow - spread, meadow + spread))
 
-    cell, n = 1.25, 81
-    heights = _terrain_heights(rng, n, cell, target_xy, (4.5, 9.0))
+    cell, n = 2.5, 41
+    heights = _terrain_heights(rng, n, cell, target_xy, (6.0, 11.0))
     terrain = Terrain(heights, cell, FOREST_BASE_Z_M)
     b.ground = terrain.height
     b.surfaces.append(shapes.create_ground(client, b.crng, FOREST_BASE_Z_M))
@@ -853,7 +860,7 @@ def _build_forest_edge(b: _Builder, n_pedestrians: int | None) -> World:
         yaw = float(rng.uniform(-math.pi, math.pi))
         make_shed = partial(shapes.create_shed, client, b.crng, size_m=size, yaw_rad=yaw)
         if b.try_box_object(
-            lay, "shed", xy, (size[0] + 0.4, size[1] + 0.5), shapes.shed_height(size), yaw, make_shed, 0.5
+            lay, "shed", xy, (size[0] + 0.5, size[1] + 0.6), shapes.shed_height(size), yaw, make_shed, 0.5
         ):
             break
 
@@ -884,7 +891,9 @@ def _build_forest_edge(b: _Builder, n_pedestrians: int | None) -> World:
             xy = target_xy + rng.uniform(-30.0, 30.0, 2)
             if forest_depth(xy) > -3.0 or np.linalg.norm(xy - target_xy) < clearing_r:
                 continue
-            if b.try_tree(lay, xy, bool(rng.uniform() < 0.2), float(rng.uniform(1.8, 3.0)), float(rng.uniform(1.3, 2.4))):
+            if b.try_tree(
+                lay, xy, bool(rng.uniform() < 0.2), float(rng.uniform(1.8, 3.0)), float(rng.uniform(1.3, 2.4))
+            ):
                 break
     for _ in range(int(rng.integers(6, 11))):  # bushes along the edge
         for _ in range(100):
@@ -902,7 +911,7 @@ def _build_forest_edge(b: _Builder, n_pedestrians: int | None) -> World:
                 break
 
     n_ped = _default_count(rng, 1, 2, n_pedestrians)
-    b.add_pedestrians(_path_regions(rng, n_ped, start_xy, target_xy, 4.5), target_xy, lay)
+    b.add_pedestrians(_path_regions(n_ped, start_xy, target_xy, 4.5), target_xy, lay)
     sz = terrain.height(float(start_xy[0]), float(start_xy[1]))
     return World(
         b.name,
