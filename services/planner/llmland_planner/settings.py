@@ -24,6 +24,11 @@ class PlannerSettings(BaseSettings):
     spec_match_m: float = 1.5
     spec_stale_s: float = 8.0
     moving_speed_mps: float = 0.25
+    #: out of view: constant-velocity prediction is trusted this long (s) ...
+    predict_cap_s: float = 1.0
+    #: ... then a dynamic obstacle's buffer grows at this speed (m/s), up to this much (m)
+    unseen_growth_mps: float = 1.0
+    unseen_growth_max_m: float = 3.0
     # landing
     cruise_altitude_m: float = 3.0
     max_altitude_m: float = 10.0

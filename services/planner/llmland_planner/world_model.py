@@ -116,10 +116,7 @@ class WorldModel:
         self.release_specs(t_s)
         s = self.settings
         out: list[UnsafeRegion] = []
-        for tr in self.tracker.tracks(at_s=t_s):
-            centre = 0.5 * (tr.lo_m + tr.hi_m)
-            radius = float(0.5 * np.hypot(tr.hi_m[0] - tr.lo_m[0], tr.hi_m[1] - tr.lo_m[1]))
-            height = float(tr.hi_m[2] - tr.lo_m[2])
+        for tr in self.tracker.tracks():
             vel = tr.velocity_mps[:2]
             moving = float(np.linalg.norm(vel)) > s.moving_speed_mps
             if self.semantic:
@@ -128,11 +125,22 @@ class WorldModel:
                 dynamic = spec.is_dynamic or moving
             else:
                 buffer_m, z_min, label, dynamic = s.baseline_margin_m, 0.0, "obstacle", moving
+            # Unseen for a while: extrapolate at most `predict_cap_s`, then let the
+            # uncertainty grow at walking speed (a person out of view may be anywhere near).
+            age = max(0.0, t_s - tr.last_seen_s)
+            dt_pred = min(age, s.predict_cap_s)
+            if dynamic:
+                buffer_m += min(s.unseen_growth_mps * (age - dt_pred), s.unseen_growth_max_m)
+            shift = np.array([vel[0], vel[1], 0.0]) * dt_pred
+            lo, hi = tr.lo_m + shift, tr.hi_m + shift
+            centre = 0.5 * (lo + hi)
+            radius = float(0.5 * np.hypot(hi[0] - lo[0], hi[1] - lo[1]))
+            height = float(hi[2] - lo[2])
             out += from_obstacle(
                 centre[:2], radius, height, buffer_m, z_min,
                 velocity_xy=vel if moving else None,
                 horizon_s=s.sweep_horizon_s if dynamic and moving else 0.0,
-                obj_id=tr.track_id, label=label, z_ground_m=float(tr.lo_m[2]),
+                obj_id=tr.track_id, label=label, z_ground_m=float(lo[2]),
             )
             if dynamic and not moving:
                 for r in out[-1:]:

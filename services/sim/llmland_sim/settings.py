@@ -20,6 +20,8 @@ class SimSettings(BaseSettings):
     camera_hz: float = 5.0  # 0 disables the camera
     camera_width: int = 384
     camera_height: int = 384
+    #: forward-down camera: pitch below the body x axis (90° would look straight down)
+    camera_pitch_down_deg: float = 60.0
     renderer: Literal["auto", "tiny", "egl"] = "auto"
     truth_hz: float = 10.0
     gui: bool = False

@@ -89,7 +89,8 @@ class Simulation:
         self.quad = Quadrotor(self.client, self.params, start_pos=tuple(start), start_yaw=0.0)
         self.quad.set_command(np.zeros(3), self.params.hover_thrust_n)
         if s.camera_hz > 0:
-            self.camera = RgbdCamera(self.client, width=s.camera_width, height=s.camera_height, renderer=s.renderer)
+            self.camera = RgbdCamera(self.client, width=s.camera_width, height=s.camera_height,
+                                     pitch_down_deg=s.camera_pitch_down_deg, renderer=s.renderer)
         self.mission = mission
         self.score = EpisodeScore(target_m=np.asarray(self.world.target_m, dtype=float))
         self._classes = {o.obj_id: o.cls for o in self.world.objects}
