@@ -8,9 +8,10 @@ import threading
 import time
 
 import pytest
-from llmland.launch import free_port
 from llmland_schemas import Topic, VehicleState, key
 from llmland_schemas.bus import Bus, ZenohSettings
+
+from llmland.launch import free_port
 
 pytestmark = pytest.mark.integration
 

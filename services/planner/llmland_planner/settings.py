@@ -24,6 +24,7 @@ class PlannerSettings(BaseSettings):
     spec_match_m: float = 1.5
     spec_stale_s: float = 8.0
     moving_speed_mps: float = 0.25
+    moving_displacement_m: float = 1.0
     #: out of view: constant-velocity prediction is trusted this long (s) ...
     predict_cap_s: float = 1.0
     #: ... then a dynamic obstacle's buffer grows at this speed (m/s), up to this much (m)

@@ -54,6 +54,7 @@ class TrackedObstacle:
     hits: int = 1
     missed_s: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
+    origin_m: FloatArray | None = None  # centroid when first seen (tells real motion from view changes)
 
 
 class ObstacleTracker:
@@ -130,6 +131,7 @@ class ObstacleTracker:
             velocity_mps=np.zeros(3),
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
+            origin_m=np.array(blob.centroid_m, dtype=np.float64),
         )
         self._next_id += 1
         return track

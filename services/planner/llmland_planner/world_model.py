@@ -118,7 +118,11 @@ class WorldModel:
         out: list[UnsafeRegion] = []
         for tr in self.tracker.tracks():
             vel = tr.velocity_mps[:2]
-            moving = float(np.linalg.norm(vel)) > s.moving_speed_mps
+            # Moving = fast enough now AND displaced from where it was first seen: a static
+            # object seen from new angles shifts its visible centroid, but not by metres.
+            origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
+            displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
+            moving = displaced and float(np.linalg.norm(vel)) > s.moving_speed_mps
             if self.semantic:
                 spec = self.spec_for(tr, t_s)
                 buffer_m, z_min, label = spec.buffer_m, spec.z_min, spec.label

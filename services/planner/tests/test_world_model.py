@@ -1,0 +1,69 @@
+"""Semantic unsafe regions: specs released at stamp + latency, conservative until then."""
+
+import numpy as np
+from llmland_planner.settings import PlannerSettings
+from llmland_planner.world_model import WorldModel
+from llmland_schemas import CONSERVATIVE_BUFFER_M, ObjectSpec, SafetySpec, SafetySpecMessage
+from llmland_schemas.depth import Blob
+
+
+def _blob(x: float, y: float, h: float = 1.7) -> Blob:
+    lo, hi = np.array([x - 0.25, y - 0.25, 0.0]), np.array([x + 0.25, y + 0.25, h])
+    return Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo,
+                n_points=100, bbox_px=(0, 0, 10, 10), footprint_radius_m=0.35)
+
+
+def _person_spec(latency_ms: float, stamp: float) -> SafetySpecMessage:
+    spec = SafetySpec(is_dynamic=True, z_min=3.0, buffer_m=3.0, label="person", source="rag")
+    return SafetySpecMessage(stamp=stamp, scene=spec, latency_ms=latency_ms,
+                             objects=[ObjectSpec(obj_id="b0", centroid_m=(5.0, 0.0, 0.85), size_m=(0.5, 0.5, 1.7),
+                                                 spec=spec)])
+
+
+def _half_width(wm: WorldModel, t: float) -> float:
+    regions = wm.regions(t)
+    assert len(regions) == 1
+    return float((regions[0].hi[0] - regions[0].lo[0]) / 2)
+
+
+def test_unknown_obstacle_is_most_conservative_until_its_spec_is_due():
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.on_spec(_person_spec(latency_ms=1453.6, stamp=0.0))  # the paper's GPU latency
+    assert _half_width(wm, 1.0) > CONSERVATIVE_BUFFER_M  # not yet applied at t = 1.0 s
+    wm.tracker.update([_blob(5.0, 0.0)], 1.5)
+    assert 3.0 < _half_width(wm, 1.5) < 3.5  # applied at 1.4536 s: buffer 3 m + radius
+
+
+def test_stale_spec_falls_back_to_conservative():
+    s = PlannerSettings(spec_stale_s=2.0)
+    wm = WorldModel(s, "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.on_spec(_person_spec(0.0, 0.0))
+    assert _half_width(wm, 0.0) < 3.5
+    wm.tracker.update([_blob(5.0, 0.0)], 3.0)
+    assert _half_width(wm, 3.0) > CONSERVATIVE_BUFFER_M
+
+
+def test_baseline_ignores_specs_and_uses_one_margin():
+    wm = WorldModel(PlannerSettings(baseline_margin_m=1.0), "baseline")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.on_spec(_person_spec(0.0, 0.0))
+    assert 1.0 < _half_width(wm, 0.0) < 1.5
+
+
+def test_view_dependent_centroid_jitter_is_not_motion():
+    wm = WorldModel(PlannerSettings(), "baseline")
+    for k, dx in enumerate([0.0, 0.3, 0.0, 0.3, 0.0]):  # jitter of a static rock, 1.5 m/s apparent
+        wm.tracker.update([_blob(5.0 + dx, 0.0, 0.4)], 0.2 * k)
+    regions = wm.regions(0.8)
+    assert len(regions) == 1 and not regions[0].is_dynamic
+
+
+def test_walking_obstacle_is_swept_along_its_motion():
+    wm = WorldModel(PlannerSettings(), "baseline")
+    for k in range(8):
+        wm.tracker.update([_blob(5.0 + 0.3 * k, 0.0)], 0.2 * k)  # 1.5 m/s along +x
+    regions = wm.regions(1.4)
+    assert len(regions) > 1 and all(r.is_dynamic for r in regions)
+    assert max(r.hi[0] for r in regions) > 7.1 + 2.0  # swept ahead over the horizon
