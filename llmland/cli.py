@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -102,10 +103,24 @@ def cmd_up(args: argparse.Namespace) -> int:
     return 0
 
 
+@contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    sys.stdout.flush()
+    saved = os.dup(1)
+    os.dup2(2, 1)
+    try:
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     from . import bench
 
-    figures = bench.run(args.what, quick=args.quick)
+    with _stdout_to_stderr():  # C libraries (EGL, pybullet) print to fd 1: keep the JSON clean
+        figures = bench.run(args.what, quick=args.quick)
     if args.json:
         sys.stdout.write(json.dumps(figures, indent=2) + "\n")
     else:
