@@ -33,6 +33,11 @@ SERVICE_MODULES: dict[str, str] = {
 }
 
 
+#: services that serve every drone announce themselves under this id (the ground station)
+SHARED_SERVICES = {"reasoner"}
+SHARED_DRONE = "ground"
+
+
 def free_port() -> int:
     """A currently free TCP port on 127.0.0.1."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
@@ -88,10 +93,10 @@ class Stack:
 
     def wait_alive(self, bus: Bus, timeout_s: float = 60.0) -> None:
         """Block until every started service has declared its liveliness token."""
-        want = {alive(self.drone_id, n) for n in self.procs}
+        want = {alive(SHARED_DRONE if n in SHARED_SERVICES else self.drone_id, n) for n in self.procs}
         deadline = time.monotonic() + timeout_s
         while True:
-            found = bus.alive(f"llmland/{self.drone_id}/alive/*", timeout_s=0.5)
+            found = bus.alive("llmland/*/alive/*", timeout_s=0.5)
             if want <= found:
                 return
             for name, proc in self.procs.items():

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Install LLM-Land into .venv at the repository root (pinned by constraints.txt).
 #   bash scripts/install.sh          # runtime: every service and the llmland CLI
-#   bash scripts/install.sh --test   # plus test tools (pytest, hypothesis, osqp, ruff, mypy)
+#   bash scripts/install.sh --test   # plus test tools (pytest, hypothesis, osqp, schemathesis, ruff, mypy)
 #                                    # and the docker-compose v1 client to validate compose.yaml
+# llama-cpp-python builds from source the first time (~8 min on 2 cores); pip caches the wheel.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -24,7 +25,7 @@ export PIP_DISABLE_PIP_VERSION_CHECK=1
 extras=""
 [ "$with_test" = 1 ] && extras="[test]"
 .venv/bin/pip install -q -c constraints.txt \
-  -e shared/schemas -e services/sim -e services/planner -e ".${extras}"
+  -e shared/schemas -e services/sim -e services/planner -e services/vle -e services/reasoner -e ".${extras}"
 
 if [ "$with_test" = 1 ] && ! command -v docker-compose >/dev/null 2>&1; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then

@@ -1,0 +1,55 @@
+"""One extractor per mode over shared loaded models (the HTTP API may ask for any mode)."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+from llmland_schemas import SafetySpec
+
+from .extractor import SpecExtractor
+from .kb import KbEntry
+from .resources import Resources
+from .settings import Mode, ReasonerSettings
+
+
+def kb_write_path(settings: ReasonerSettings) -> Path:
+    """Where KB writes persist: the configured KB file, else beside the index (the shipped
+    KB inside the package is never overwritten)."""
+    return settings.kb_path or settings.index_dir / "knowledge_base.json"
+
+
+class ReasonerEngine:
+    """Caption → SafetySpec in the configured mode (or another one on request)."""
+
+    def __init__(self, settings: ReasonerSettings, resources: Resources | None = None) -> None:
+        self.settings = settings
+        self.resources = resources or Resources.load(settings)
+        self._lock = threading.Lock()
+        self._extractors: dict[str, SpecExtractor] = {}
+
+    def extractor(self, mode: Mode | None = None) -> SpecExtractor:
+        m: Mode = mode or self.settings.mode
+        with self._lock:
+            ex = self._extractors.get(m)
+            if ex is None:
+                ex = self._extractors[m] = SpecExtractor(m, self.settings, self.resources)
+            return ex
+
+    def extract(self, caption: str, mode: Mode | None = None) -> SafetySpec:
+        return self.extractor(mode).extract(caption)
+
+    def add_entry(self, entry: KbEntry) -> KbEntry:
+        """Validated KB write, persisted to the KB file when one is configured; caches cleared."""
+        added = self.extractor().add_entry(entry, save_to=kb_write_path(self.settings))
+        with self._lock:
+            for ex in self._extractors.values():
+                ex.clear_cache()
+        return added
+
+    def models(self) -> dict[str, str]:
+        return dict(self.resources.model_names)
+
+    def close(self) -> None:
+        for ex in self._extractors.values():
+            ex.close()

@@ -1,0 +1,47 @@
+"""``llmland-reasoner``: the ground-station reasoner (bus service + HTTP API in one process).
+
+Loads the KB, the retriever and the LLM once, serves ``reasoner/spec`` on the bus for every
+drone and the HTTP API on ``LLMLAND_REASONER_HTTP_HOST:PORT`` (127.0.0.1:8080 by default).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import uvicorn
+from llmland_schemas.bus import Bus
+from llmland_schemas.keys import alive
+from llmland_schemas.service import configure_logging
+
+from .bus_service import ReasonerBusService, caption_via_vle
+from .engine import ReasonerEngine, kb_write_path
+from .http_api import create_app
+from .settings import ReasonerSettings
+
+log = logging.getLogger("llmland.reasoner")
+
+
+def main() -> None:
+    configure_logging()
+    settings = ReasonerSettings()
+    if settings.kb_path is None and kb_write_path(settings).exists():
+        settings = settings.model_copy(update={"kb_path": kb_write_path(settings)})  # earlier API writes
+    if settings.http_host not in ("127.0.0.1", "localhost", "::1") and settings.api_token is None:
+        log.warning("HTTP API bound to %s without LLMLAND_REASONER_API_TOKEN", settings.http_host)
+    engine = ReasonerEngine(settings)
+    engine.extractor().warm_up()
+    with Bus() as bus:
+        service = ReasonerBusService(engine, bus)
+        bus.announce(alive("ground", "reasoner"))
+        app = create_app(engine, caption_via_vle(bus), settings)
+        log.info("reasoner ready: mode=%s models=%s http://%s:%d", settings.mode, engine.models(),
+                 settings.http_host, settings.http_port)
+        try:
+            uvicorn.run(app, host=settings.http_host, port=settings.http_port, log_level="warning")
+        finally:
+            service.close()
+            engine.close()
+
+
+if __name__ == "__main__":
+    main()
