@@ -1,0 +1,1 @@
+"""simcap: the default captioner, a small CNN + GRU trained on the project's own renders."""

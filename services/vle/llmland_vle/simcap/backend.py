@@ -1,0 +1,110 @@
+"""The ``simcap`` captioner backend: loads the committed weights and captions batches greedily.
+
+A weights directory holds ``simcap.pt`` (a ``state_dict`` saved with ``torch.save``; loaded
+with ``weights_only=True``, so no pickled classes) and ``simcap.json`` (model
+configuration, vocabulary, version).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from llmland_schemas import Caption
+
+from ..captioner import CaptionKind
+from ..crops import check_rgb, resize
+from .model import ModelConfig, SimCapNet, images_to_tensor
+from .vocab import Vocab
+
+log = logging.getLogger(__name__)
+
+DEFAULT_WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
+WEIGHTS_FILE = "simcap.pt"
+META_FILE = "simcap.json"
+
+
+def save_model(
+    model: SimCapNet, vocab: Vocab, out_dir: Path, version: str, extra: dict[str, Any] | None = None
+) -> None:
+    """Write ``simcap.pt`` and ``simcap.json`` into ``out_dir``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+    torch.save(state, out_dir / WEIGHTS_FILE)
+    meta = {"version": version, "config": model.cfg.to_dict(), "vocab": vocab.itos, **(extra or {})}
+    (out_dir / META_FILE).write_text(json.dumps(meta, indent=1) + "\n")
+
+
+def bias_vector(vocab: Vocab, bias: dict[str, float] | None) -> torch.Tensor | None:
+    """(V,) logit bias from ``{word: bias}`` (None if empty)."""
+    if not bias:
+        return None
+    vec = torch.zeros(len(vocab))
+    for word, b in bias.items():
+        if word in vocab.stoi:
+            vec[vocab.stoi[word]] = float(b)
+    return vec
+
+
+def load_meta(weights_dir: Path | None = None) -> dict[str, Any]:
+    d = Path(weights_dir) if weights_dir is not None else DEFAULT_WEIGHTS_DIR
+    meta: dict[str, Any] = json.loads((d / META_FILE).read_text())
+    return meta
+
+
+def load_model(weights_dir: Path | None = None) -> tuple[SimCapNet, Vocab, str]:
+    """Model (eval mode), vocabulary and version from a weights directory."""
+    d = Path(weights_dir) if weights_dir is not None else DEFAULT_WEIGHTS_DIR
+    meta = json.loads((d / META_FILE).read_text())
+    vocab = Vocab(meta["vocab"])
+    if vocab.itos != meta["vocab"]:
+        raise ValueError(f"{d / META_FILE}: vocabulary is not in canonical order")
+    cfg = ModelConfig.from_dict(meta["config"])
+    model = SimCapNet(cfg)
+    state = torch.load(d / WEIGHTS_FILE, map_location="cpu", weights_only=True)
+    model.load_state_dict(state)
+    model.eval()
+    return model, vocab, str(meta.get("version", "unknown"))
+
+
+class SimcapCaptioner:
+    """Captions crops (``kind="object"``) and whole frames (``kind="frame"``)."""
+
+    backend = "simcap"
+
+    def __init__(self, weights_dir: Path | None = None, *, threads: int = 2, crop_size: int | None = None) -> None:
+        torch.set_num_threads(threads)
+        self.model, self.vocab, version = load_model(weights_dir)
+        self.logit_bias = bias_vector(self.vocab, load_meta(weights_dir).get("logit_bias"))
+        self.model_version = f"simcap-{version}"
+        cfg = self.model.cfg
+        self.crop_size = int(crop_size or cfg.crop_size)
+        if self.crop_size != cfg.crop_size:
+            log.warning("crop_size %d differs from the %d px simcap was trained on", self.crop_size, cfg.crop_size)
+        self.frame_size = cfg.frame_size
+        self._lock = threading.Lock()
+        n = sum(p.numel() for p in self.model.parameters())
+        log.info("simcap %s loaded: %d parameters, crops %d px, frames %d px", version, n, self.crop_size,
+                 self.frame_size)
+
+    def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
+        return self.caption_batch([image_rgb], kind=kind)[0]
+
+    def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
+        if not images:
+            return []
+        t0 = time.perf_counter()
+        size = self.frame_size if kind == "frame" else self.crop_size
+        batch = images_to_tensor([resize(check_rgb(im), size) for im in images])
+        with self._lock:
+            ids = self.model.greedy(batch, self.vocab.bos(kind), self.vocab.eos, logit_bias=self.logit_bias)
+        texts = [self.vocab.decode(row.tolist()) for row in ids]
+        per_ms = (time.perf_counter() - t0) * 1e3 / len(images)
+        return [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
