@@ -25,8 +25,16 @@ WORLDS = ["open_field", "urban", "forest_edge"]
 METHODS = list(PILOT_FOR_METHOD)
 
 
-def _services_for(method: str) -> list[str]:
-    return ["sim", PILOT_FOR_METHOD[method]]
+def _services_for(args: argparse.Namespace) -> list[str]:
+    names = ["sim", PILOT_FOR_METHOD[args.method]]
+    if _pipeline(args):
+        names += ["vle", "reasoner"]
+    return names
+
+
+def _pipeline(args: argparse.Namespace) -> bool:
+    """Semantic methods with real perception: VLE captions → reasoner specs."""
+    return args.method in ("llm", "llm-land") and args.specs == "pipeline"
 
 
 def _mission(args: argparse.Namespace, seed: int, rrd: str | None = None) -> MissionGoal:
@@ -40,6 +48,7 @@ def _mission(args: argparse.Namespace, seed: int, rrd: str | None = None) -> Mis
         timeout_s=args.timeout,
         n_pedestrians=args.pedestrians,
         rrd_path=rrd,
+        max_rtf=1.0 if _pipeline(args) else None,
     )
 
 
@@ -47,8 +56,10 @@ def _mission(args: argparse.Namespace, seed: int, rrd: str | None = None) -> Mis
 def _stack(args: argparse.Namespace) -> Iterator[EpisodeRunner]:
     """Hub session + service processes for ``args.method``; yields an episode runner."""
     port = args.port or free_port()
-    with hub_bus(port) as bus, Stack(port, args.drone_id, log_level=args.service_log_level) as stack:
-        stack.start(_services_for(args.method))
+    env = {"LLMLAND_REASONER_MODE": "rag" if args.method == "llm-land" else "llm",
+           "LLMLAND_REASONER_HTTP_PORT": str(free_port())}
+    with hub_bus(port) as bus, Stack(port, args.drone_id, env=env, log_level=args.service_log_level) as stack:
+        stack.start(_services_for(args))
         if args.specs == "oracle" and args.method in ("llm", "llm-land"):
             OracleSpecPublisher(bus, args.drone_id)
         stack.wait_alive(bus)
@@ -135,8 +146,9 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
     p.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
     p.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the world's)")
-    p.add_argument("--specs", choices=["oracle", "none"], default="oracle",
-                   help="semantic methods: where specs come from (oracle = given from ground truth)")
+    p.add_argument("--specs", choices=["pipeline", "oracle", "none"], default="pipeline",
+                   help="semantic methods: where specs come from — pipeline (VLE captions → reasoner), "
+                        "oracle (given from ground truth), none")
     p.add_argument("--drone-id", default="d0")
     p.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
 

@@ -52,13 +52,14 @@ class SimService:
         self.commands = CommandMailbox()
         self.recorder: SimRecorder | None = None
         self.current: MissionGoal | None = None
+        self.spec_latencies_ms: list[float] = []
         d = settings.drone_id
         self.k = {t: key(d, t) for t in Topic}
         bus.subscribe(self.k[Topic.MISSION], MissionGoal, self._on_mission)
         bus.subscribe(self.k[Topic.COMMAND], ControlCommand, lambda _k, m: self.commands.put(m))
         bus.subscribe(self.k[Topic.PLAN], PlanSnapshot, lambda _k, m: self._record("plan", m))
         bus.subscribe(self.k[Topic.SCENE], SceneDescription, lambda _k, m: self._record("scene", m))
-        bus.subscribe(self.k[Topic.SPEC], SafetySpecMessage, lambda _k, m: self._record("spec", m))
+        bus.subscribe(self.k[Topic.SPEC], SafetySpecMessage, self._on_spec)
         bus.announce(alive(d, "sim"))
 
     def _on_mission(self, _key: str, msg: MissionGoal) -> None:
@@ -69,6 +70,11 @@ class SimService:
         if self.current is not None and self.current.episode_id == msg.episode_id:
             return  # a repeated start for the running episode
         self.missions.put(msg)
+
+    def _on_spec(self, _key: str, msg: SafetySpecMessage) -> None:
+        if self.current is not None and msg.episode_id == self.current.episode_id:
+            self.spec_latencies_ms.append(msg.latency_ms)
+        self._record("spec", msg)
 
     def _record(self, kind: str, msg: object) -> None:
         rec = self.recorder
@@ -93,6 +99,7 @@ class SimService:
     def run_episode(self, mission: MissionGoal) -> None:
         s, sim, bus = self.settings, self.sim, self.bus
         self.commands.clear()
+        self.spec_latencies_ms = []
         sim.reset(mission)
         assert sim.world is not None
         # Tell everyone the resolved mission (start and target filled from the world).
@@ -131,6 +138,8 @@ class SimService:
             if self.recorder:
                 self.recorder.state(state)
             if lockstep:
+                if mission.max_rtf is not None:
+                    time.sleep(max(0.0, wall0 + sim.t_s / mission.max_rtf - time.perf_counter()))
                 cmd = self.commands.wait_for(state.seq, s.lockstep_timeout_s)
                 if cmd is None:
                     sim.deadline_misses += 1
@@ -144,6 +153,8 @@ class SimService:
             sim.apply_command(cmd)
             sim.step()
         result = sim.result(mpc_solve_ms=solve_ms)
+        if self.spec_latencies_ms:
+            result.spec_latency_ms_mean = float(sum(self.spec_latencies_ms) / len(self.spec_latencies_ms))
         if self.recorder:
             self.recorder.close()
             result.rrd_path = str(self.recorder.path) if self.recorder.path else None

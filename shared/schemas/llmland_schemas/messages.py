@@ -270,6 +270,9 @@ class MissionGoal(Envelope):
     target_m: Vec3 | None = None
     n_pedestrians: NonNegativeInt | None = None
     given_specs: list[GivenSpec] = []
+    #: Lockstep only: never run faster than this many times real time (None: as fast as it
+    #: can). 1.0 while perception runs, so captioning and reasoning cost their real latency.
+    max_rtf: Annotated[FiniteFloat, Field(gt=0)] | None = None
     #: Where the sim records this episode to Rerun (a path on the sim's host), if at all.
     rrd_path: str | None = None
 
