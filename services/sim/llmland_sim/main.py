@@ -5,7 +5,8 @@ Subscribes ``llmland/<d>/mission`` (MissionGoal) and ``llmland/<d>/planner/comma
 ``camera_hz``, ``sim/truth`` at ``truth_hz`` and ``episode/result`` at the end.
 
 Clock modes (DESIGN §4): ``lockstep`` publishes each tick's state and waits, bounded by
-``lockstep_timeout_s``, for the command echoing its ``seq`` (a miss is counted and the
+``lockstep_timeout_s``, for the command echoing its ``seq`` (a miss, or a command whose
+controller compute time `tick_ms` exceeded the control period, is counted and the
 vehicle holds its last input, then holds position); ``realtime`` paces ticks to the wall
 clock and applies the newest command.
 """
@@ -146,6 +147,8 @@ class SimService:
             else:
                 time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
                 cmd = self.commands.take_latest()
+            if cmd is not None and cmd.tick_ms is not None and cmd.tick_ms > 1e3 / s.ctrl_hz:
+                sim.deadline_misses += 1  # the controller overran its control period
             if cmd is not None and cmd.solve_ms is not None:
                 solve_ms.append(cmd.solve_ms)
                 if self.recorder:
