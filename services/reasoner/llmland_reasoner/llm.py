@@ -1,9 +1,9 @@
 """LLM backends (DESIGN §5, step 3): an interface and the default llama.cpp implementation.
 
 A prompt is split in two: a fixed ``prefix`` (instructions and few-shot examples) and a
-short variable ``suffix`` (context and caption). The backend keeps the prefix's KV cache
-and only evaluates what changed: llama.cpp's memory is truncated to the longest common
-token prefix with the previous call (``memory_seq_rm``), so a call costs the suffix only.
+short variable ``suffix`` (caption and answer opening). The backend keeps the prefix's KV
+cache: a call truncates llama.cpp's memory back to the prefix (``memory_seq_rm``) and
+evaluates only the suffix; a prefix seen before is restored from a saved sequence state.
 
 Two operations:
 - ``complete`` — grammar-constrained generation (GBNF), at most ``max_tokens`` tokens;
@@ -13,18 +13,22 @@ Two operations:
 
 from __future__ import annotations
 
+import ctypes
 import importlib.util
 import logging
 import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Protocol, runtime_checkable
 
+import llama_cpp
 import numpy as np
 
 log = logging.getLogger(__name__)
 
 SMOLLM2_FILE = "SmolLM2-135M-Instruct.Q4_1.gguf"
+MAX_SAVED_PREFIXES = 4
 
 
 @runtime_checkable
@@ -37,8 +41,11 @@ class LlmBackend(Protocol):
         """Generate after ``prefix + suffix``; with ``grammar`` (GBNF) the text always matches it."""
         ...
 
-    def score(self, prefix: str, suffix: str, continuations: Sequence[str]) -> list[float]:
-        """Sum of token log-probabilities of each continuation after ``prefix + suffix``."""
+    def score(
+        self, prefix: str, suffix: str, continuations: Sequence[str], first_token_only: bool = False
+    ) -> list[float]:
+        """Sum of token log-probabilities of each continuation after ``prefix + suffix``
+        (only its first token's with ``first_token_only``: one evaluation, no extra decode)."""
         ...
 
 
@@ -78,6 +85,7 @@ class LlamaCppBackend:
         self._n_vocab = self._llm.n_vocab()
         self._lock = threading.Lock()
         self._tokens: dict[str, list[int]] = {}
+        self._saved: OrderedDict[tuple[int, ...], bytes] = OrderedDict()
         log.info("llama.cpp backend: %s, %d threads, n_ctx %d", path.name, n_threads, n_ctx)
 
     # ------------------------------------------------------------------ tokens
@@ -90,40 +98,68 @@ class LlamaCppBackend:
             self._tokens[text] = cached
         return cached
 
-    def _prompt(self, prefix: str, suffix: str) -> list[int]:
-        tokens = self._tok(prefix) + self._tok(suffix)
-        if len(tokens) + 64 > self._llm.n_ctx():
-            raise ValueError(f"prompt of {len(tokens)} tokens does not fit n_ctx {self._llm.n_ctx()}")
-        return tokens
+    def _prompt(self, prefix: str, suffix: str) -> tuple[list[int], list[int]]:
+        head, tail = self._tok(prefix), self._tok(suffix)
+        if not tail:
+            raise ValueError("empty prompt suffix")
+        if len(head) + len(tail) + 64 > self._llm.n_ctx():
+            raise ValueError(f"prompt of {len(head) + len(tail)} tokens does not fit n_ctx {self._llm.n_ctx()}")
+        return head, tail
 
     def _logits(self, index: int) -> np.ndarray:
         ptr = self._llm._ctx.get_logits_ith(index)
         return np.ctypeslib.as_array(ptr, shape=(self._n_vocab,)).astype(np.float64)
 
-    def _eval_reusing_prefix(self, tokens: list[int]) -> None:
-        """Make the KV cache hold exactly ``tokens``, evaluating only past the common prefix."""
+    def _load_prefix(self, prefix: list[int]) -> None:
+        """Make the KV cache hold exactly ``prefix``, computing it only the first time.
+
+        The prefix is always evaluated whole, in one batch, and its KV state is kept (a few MB
+        each, the last :data:`MAX_SAVED_PREFIXES`) so that switching between prompts (rag / llm)
+        restores it instead of recomputing. Logits then depend only on the prompt, never on
+        what was asked before.
+        """
         llm = self._llm
-        common = 0
-        for cached, new in zip(llm.input_ids[: llm.n_tokens], tokens, strict=False):
-            if cached != new:
-                break
-            common += 1
-        common = min(common, len(tokens) - 1)  # always evaluate >= 1 token to get fresh logits
-        llm.n_tokens = common
-        llm.eval(tokens[common:])  # eval drops the stale KV past n_tokens first
+        if llm.n_tokens >= len(prefix) and list(llm.input_ids[: len(prefix)]) == prefix:
+            llm.n_tokens = len(prefix)
+            llm._ctx.kv_cache_seq_rm(0, len(prefix), -1)
+            return
+        key = tuple(prefix)
+        llm.reset()
+        llm._ctx.kv_cache_clear()
+        saved = self._saved.get(key)
+        if saved is not None:
+            self._saved.move_to_end(key)
+            buf = (ctypes.c_uint8 * len(saved)).from_buffer_copy(saved)
+            if llama_cpp.llama_state_seq_set_data(llm._ctx.ctx, buf, len(saved), 0) == 0:
+                raise RuntimeError("could not restore the prompt prefix state")
+            llm.input_ids[: len(prefix)] = prefix
+            llm.n_tokens = len(prefix)
+            llm._requires_eval = True
+            return
+        llm.eval(prefix)
+        size = llama_cpp.llama_state_seq_get_size(llm._ctx.ctx, 0)
+        out = (ctypes.c_uint8 * size)()
+        written = llama_cpp.llama_state_seq_get_data(llm._ctx.ctx, out, size, 0)
+        self._saved[key] = bytes(out[:written])
+        while len(self._saved) > MAX_SAVED_PREFIXES:
+            self._saved.popitem(last=False)
+        log.debug("prompt prefix of %d tokens evaluated and saved (%d bytes)", len(prefix), written)
 
     # --------------------------------------------------------------- interface
-    def score(self, prefix: str, suffix: str, continuations: Sequence[str]) -> list[float]:
+    def score(
+        self, prefix: str, suffix: str, continuations: Sequence[str], first_token_only: bool = False
+    ) -> list[float]:
         with self._lock:
-            prompt = self._prompt(prefix, suffix)
-            self._eval_reusing_prefix(prompt)
+            head, tail = self._prompt(prefix, suffix)
+            self._load_prefix(head)
+            self._llm.eval(tail)
             base = self._llm.n_tokens
             first = _log_softmax(self._logits(-1))
             out: list[float] = []
             for text in continuations:
                 cont = self._llm.tokenize(text.encode("utf-8"), add_bos=False, special=False)
                 total = float(first[cont[0]])
-                if len(cont) > 1:
+                if len(cont) > 1 and not first_token_only:
                     batch = self._llm._batch
                     batch.set_batch(batch=cont[:-1], n_past=base, logits_all=True)
                     self._llm._ctx.decode(batch)
@@ -138,10 +174,11 @@ class LlamaCppBackend:
         from llama_cpp import LlamaGrammar
 
         with self._lock:
-            prompt = self._prompt(prefix, suffix)
+            head, tail = self._prompt(prefix, suffix)
             compiled = LlamaGrammar.from_string(grammar, verbose=False) if grammar else None
+            self._load_prefix(head)  # create_completion then reuses it and evaluates only the tail
             result = self._llm.create_completion(
-                prompt=prompt,
+                prompt=head + tail,
                 max_tokens=max_tokens,
                 temperature=temperature,
                 top_k=1 if temperature <= 0.0 else 40,

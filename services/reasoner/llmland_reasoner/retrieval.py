@@ -8,7 +8,9 @@ under ``index_dir/<kb version>-<content hash>``; a later start with the same KB 
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import logging
 import re
 import shutil
@@ -19,6 +21,7 @@ from pathlib import Path
 from llama_index.core import Settings, StorageContext, VectorStoreIndex, load_index_from_storage
 from llama_index.core.base.embeddings.base import BaseEmbedding
 from llama_index.core.retrievers import QueryFusionRetriever
+from llama_index.core.retrievers.fusion_retriever import FUSION_MODES
 from llama_index.core.schema import TextNode
 from llama_index.retrievers.bm25 import BM25Retriever
 
@@ -32,7 +35,8 @@ _SUB_TOP_K = 6  # each retriever looks a little deeper so that the fusion can br
 
 def configure_llama_index(embed_model: BaseEmbedding) -> None:
     """Point llama-index at our local embedding and at no LLM, so nothing reaches a hosted API."""
-    Settings.llm = None
+    with contextlib.redirect_stdout(io.StringIO()):  # llama-index print()s a notice about the MockLLM
+        Settings.llm = None
     Settings.embed_model = embed_model
 
 
@@ -82,7 +86,7 @@ class Retriever:
             [self._index.as_retriever(similarity_top_k=_SUB_TOP_K), self._bm25],
             similarity_top_k=top_k,
             num_queries=1,
-            mode="reciprocal_rerank",
+            mode=FUSION_MODES.RECIPROCAL_RANK,
             use_async=False,
         )
         log.info(

@@ -1,0 +1,180 @@
+"""Accuracy and latency of a reasoner mode on a caption set (the paper's Exp 3, done honestly).
+
+``data/captions_eval.jsonl`` is the held-out set (hand-written BLIP-style captions, never
+used to tune anything); ``data/captions_dev.jsonl`` is the set the prompt's few-shot examples
+and the grounding weight were chosen on. A caption is right when ``is_dynamic`` matches and
+``buffer_m`` falls in the expected buffer class.
+
+Latency: *cold* = first time a caption is seen (cache miss, models already loaded and the
+prompt prefix primed); *warm* = the same caption again (cache hit). Model loading is
+reported separately in ``load_s``. ``peak_rss_mb`` is this process's peak.
+
+    python -m llmland_reasoner.evaluation --json                # all modes, one process each
+    python -m llmland_reasoner.evaluation --mode rag --data dev
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import resource
+import subprocess
+import sys
+import time
+from importlib import resources as pkg_resources
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel
+
+from .extractor import SpecExtractor
+from .resources import Resources
+from .settings import Mode, ReasonerSettings
+
+log = logging.getLogger(__name__)
+
+BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
+MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
+
+
+class CaptionCase(BaseModel):
+    caption: str
+    is_dynamic: bool
+    buffer_class: Literal["ground", "static", "person", "animal", "vehicle"]
+    expect: str = ""  # the KB id a person would pick (informative, not scored)
+
+
+class EvalReport(BaseModel):
+    mode: str
+    data: str
+    n: int
+    acc_dynamic: float
+    acc_buffer: float
+    acc_both: float
+    fallbacks: int
+    latency_cold_ms: dict[str, float]
+    latency_warm_ms: dict[str, float]
+    cpu_cold_ms: dict[str, float]  # process CPU time of a cold call: what the latency is on an idle core
+    load_s: dict[str, float]
+    peak_rss_mb: float
+    llm_changed_retrieval: int | None = None  # rag: how often the LLM's pick differs from retrieval's top-1
+    misses: list[dict[str, Any]] = []
+
+
+def buffer_class(buffer_m: float) -> str:
+    """The class whose nominal buffer is within 0.5 m, else ``"other"``."""
+    name, nominal = min(BUFFER_CLASSES.items(), key=lambda kv: abs(kv[1] - buffer_m))
+    return name if abs(nominal - buffer_m) < 0.5 else "other"
+
+
+def load_cases(data: str = "eval") -> list[CaptionCase]:
+    """``eval``, ``dev`` (packaged sets) or a path to a JSONL file."""
+    if data in ("eval", "dev"):
+        text = (pkg_resources.files("llmland_reasoner") / "data" / f"captions_{data}.jsonl").read_text("utf-8")
+    else:
+        text = Path(data).read_text(encoding="utf-8")
+    return [CaptionCase.model_validate_json(line) for line in text.splitlines() if line.strip()]
+
+
+def _pct(values: list[float]) -> dict[str, float]:
+    arr = np.asarray(values, dtype=float)
+    return {"p50": round(float(np.percentile(arr, 50)), 1), "p95": round(float(np.percentile(arr, 95)), 1)}
+
+
+def evaluate(
+    mode: Mode,
+    data: str = "eval",
+    resources: Resources | None = None,
+    settings: ReasonerSettings | None = None,
+    stride: int = 1,
+) -> EvalReport:
+    """Run ``mode`` over a caption set (every ``stride``-th caption): accuracy, latency, fallbacks."""
+    settings = settings or (resources.settings if resources else ReasonerSettings())
+    cases = load_cases(data)[::stride]
+    extractor = SpecExtractor(mode, settings=settings, resources=resources)
+    extractor.warm_up()
+    ok_dyn = ok_buf = ok_both = fallbacks = changed = 0
+    cold: list[float] = []
+    warm: list[float] = []
+    cpu: list[float] = []
+    misses: list[dict[str, Any]] = []
+    for case in cases:
+        cpu_started = time.process_time()
+        first = extractor.extract_detailed(case.caption)
+        cpu.append(1e3 * (time.process_time() - cpu_started))
+        cold.append(first.spec.latency_ms)
+        warm.append(extractor.extract_detailed(case.caption).spec.latency_ms)
+        spec = first.spec
+        dyn_ok = spec.is_dynamic == case.is_dynamic
+        buf_ok = buffer_class(spec.buffer_m) == case.buffer_class
+        ok_dyn += dyn_ok
+        ok_buf += buf_ok
+        ok_both += dyn_ok and buf_ok
+        fallbacks += spec.source == "fallback"
+        changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
+        if not (dyn_ok and buf_ok):
+            misses.append(
+                {
+                    "caption": case.caption,
+                    "expect": case.expect,
+                    "label": spec.label,
+                    "is_dynamic": spec.is_dynamic,
+                    "buffer_m": spec.buffer_m,
+                    "phrase": first.phrase,
+                    "error": first.error,
+                }
+            )
+    extractor.close()
+    n = len(cases)
+    return EvalReport(
+        mode=mode,
+        data=data,
+        n=n,
+        acc_dynamic=round(ok_dyn / n, 4),
+        acc_buffer=round(ok_buf / n, 4),
+        acc_both=round(ok_both / n, 4),
+        fallbacks=fallbacks,
+        latency_cold_ms=_pct(cold),
+        latency_warm_ms=_pct(warm),
+        cpu_cold_ms=_pct(cpu),
+        load_s={k: round(v, 2) for k, v in extractor.resources.load_s.items()},
+        peak_rss_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
+        llm_changed_retrieval=changed if mode == "rag" else None,
+        misses=misses,
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--mode", choices=[*MODES, "all"], default="all")
+    parser.add_argument("--data", default="eval", help="eval | dev | path to a JSONL caption set")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    if args.mode == "all":  # one process per mode: honest load time and peak memory each
+        reports = {}
+        for mode in MODES:
+            cmd = [sys.executable, "-m", "llmland_reasoner.evaluation", "--mode", mode, "--data", args.data, "--json"]
+            out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+            reports[mode] = json.loads(out)[mode]
+    else:
+        reports = {args.mode: evaluate(args.mode, args.data).model_dump()}
+    if args.json:
+        sys.stdout.write(json.dumps(reports) + "\n")
+    else:
+        for mode, rep in reports.items():
+            sys.stdout.write(
+                f"{mode:9s} both {rep['acc_both']:.3f}  dynamic {rep['acc_dynamic']:.3f}"
+                f"  buffer {rep['acc_buffer']:.3f}"
+                f"  cold p50/p95 {rep['latency_cold_ms']['p50']}/{rep['latency_cold_ms']['p95']} ms"
+                f"  cpu p50 {rep['cpu_cold_ms']['p50']} ms  warm p50 {rep['latency_warm_ms']['p50']} ms"
+                f"  rss {rep['peak_rss_mb']} MB"
+                f"  fallbacks {rep['fallbacks']}\n"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,161 @@
+"""Caption -> SafetySpec, in one of three modes (DESIGN §5).
+
+- ``rag`` (LLM-Land): hybrid retrieval proposes the top-3 KB entries; the LLM points at the
+  obstacle's mention in the caption (``mention.py``: one forward pass, no generation); the
+  retrieved entry that the mention names supplies ``is_dynamic``, ``z_min`` and
+  ``buffer_m`` (``grounding.py``).
+- ``llm`` (the LLM-MPC baseline): the same LLM, the paper's typed prompt, no retrieval;
+  the numbers are whatever the model writes (JSON forced by grammar).
+- ``retrieval``: the top-1 retrieved KB entry, no LLM.
+
+Specs are cached by (normalised caption, KB version, mode). Any failure — timeout, model
+error, unparseable output, empty caption — gives ``SafetySpec.conservative`` with source
+``"fallback"``; :meth:`SpecExtractor.extract` never raises. All model work runs on one
+worker thread, so a slow call cannot block the caller beyond ``timeout_s`` (its late
+result still lands in the cache).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from llmland_schemas.messages import Evidence, SafetySpec
+
+from .kb import KbEntry
+from .pipeline import Outcome, normalize_caption, run_llm, run_rag, run_retrieval
+from .resources import Resources
+from .settings import Mode, ReasonerSettings
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Extraction:
+    """A spec plus how it was made (for evaluation and logs)."""
+
+    spec: SafetySpec
+    cached: bool = False
+    phrase: str = ""  # rag: the obstacle mention the LLM pointed at
+    retrieval_top1: str = ""  # kb id retrieval alone would have chosen
+    error: str = ""
+
+
+class SpecExtractor:
+    """Turns captions into safety specs; thread-safe; never raises from :meth:`extract`."""
+
+    def __init__(
+        self,
+        mode: Mode = "rag",
+        settings: ReasonerSettings | None = None,
+        resources: Resources | None = None,
+    ) -> None:
+        self.mode: Mode = mode
+        self.settings = settings or (resources.settings if resources else ReasonerSettings())
+        self.resources = resources or Resources.load(self.settings, retrieval=mode != "llm", llm=mode != "retrieval")
+        self._cache: OrderedDict[tuple[str, str, str], Extraction] = OrderedDict()
+        self._cache_lock = threading.Lock()
+        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reasoner-{mode}")
+
+    # ------------------------------------------------------------------ public
+    def extract(self, caption: str) -> SafetySpec:
+        return self.extract_detailed(caption).spec
+
+    def extract_detailed(self, caption: str) -> Extraction:
+        started = time.perf_counter()
+        if not isinstance(caption, str):
+            return self._fallback("", started, f"caption must be a string, not {type(caption).__name__}")
+        try:
+            key = (normalize_caption(caption), self.resources.kb.version, self.mode)
+            hit = self._cache_get(key)
+            if hit is not None:
+                spec = hit.spec.model_copy(update={"caption": caption, "latency_ms": _ms(started)})
+                return replace(hit, spec=spec, cached=True)
+            if not key[0]:
+                raise ValueError("empty caption")
+            future = self._worker.submit(self._compute, key, caption)
+            return future.result(timeout=self.settings.timeout_s)
+        except FutureTimeout:
+            return self._fallback(caption, started, f"timeout after {self.settings.timeout_s} s")
+        except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
+            return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+
+    def warm_up(self) -> None:
+        """Evaluate the fixed prompt prefix once so the first real call pays only its suffix."""
+        self.extract_detailed("a person standing on a grass field")
+        self.clear_cache()
+
+    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
+        """Add a KB entry (validated, version bumped), rebuilt index; serialised with extraction."""
+        return self._worker.submit(self.resources.add_entry, entry, save_to).result()
+
+    def clear_cache(self) -> None:
+        with self._cache_lock:
+            self._cache.clear()
+
+    def close(self) -> None:
+        self._worker.shutdown(wait=True, cancel_futures=True)
+
+    # ---------------------------------------------------------------- internal
+    def _compute(self, key: tuple[str, str, str], caption: str) -> Extraction:
+        started = time.perf_counter()
+        try:
+            outcome = self._run(key[0])
+        except Exception as exc:  # noqa: BLE001
+            log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, exc)
+            return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+        spec = SafetySpec(
+            is_dynamic=outcome.is_dynamic,
+            z_min=outcome.z_min,
+            buffer_m=outcome.buffer_m,
+            label=outcome.label,
+            caption=caption,
+            evidence=[Evidence(kb_id=kb_id, score=score) for kb_id, score in outcome.evidence],
+            source=self.mode,
+            model=outcome.model,
+            latency_ms=_ms(started),
+        )
+        result = Extraction(spec=spec, phrase=outcome.phrase, retrieval_top1=outcome.retrieval_top1)
+        self._cache_put(key, result)
+        log.debug("spec %s for %r: %s", self.mode, caption, spec.model_dump(exclude={"caption"}))
+        return result
+
+    def _run(self, caption: str) -> Outcome:
+        res, s = self.resources, self.settings
+        if self.mode == "retrieval":
+            return run_retrieval(caption, res)
+        if self.mode == "llm":
+            return run_llm(caption, res, s.max_new_tokens, s.temperature)
+        return run_rag(caption, res, s.rag_context_in_prompt)
+
+    def _fallback(self, caption: str, started: float, error: str) -> Extraction:
+        log.warning("conservative fallback for %r: %s", caption, error)
+        name = self.resources.backend.name if self.resources.backend is not None else ""
+        spec = SafetySpec.conservative(caption, model=name, latency_ms=_ms(started))
+        return Extraction(spec=spec, error=error)
+
+    def _cache_get(self, key: tuple[str, str, str]) -> Extraction | None:
+        with self._cache_lock:
+            hit = self._cache.get(key)
+            if hit is not None:
+                self._cache.move_to_end(key)
+            return hit
+
+    def _cache_put(self, key: tuple[str, str, str], value: Extraction) -> None:
+        if self.settings.cache_size <= 0:
+            return
+        with self._cache_lock:
+            self._cache[key] = value
+            self._cache.move_to_end(key)
+            while len(self._cache) > self.settings.cache_size:
+                self._cache.popitem(last=False)
+
+
+def _ms(started: float) -> float:
+    return round(1e3 * (time.perf_counter() - started), 3)

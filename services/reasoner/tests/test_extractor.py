@@ -1,0 +1,143 @@
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import replace
+
+import pytest
+from llmland_reasoner.extractor import SpecExtractor
+from llmland_reasoner.resources import Resources
+from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, SafetySpec
+
+
+class BrokenBackend:
+    name = "broken"
+
+    def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
+        raise RuntimeError("model crashed")
+
+    def score(
+        self, prefix: str, suffix: str, continuations: Sequence[str], first_token_only: bool = False
+    ) -> list[float]:
+        raise RuntimeError("model crashed")
+
+
+class GarbageBackend(BrokenBackend):
+    name = "garbage"
+
+    def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
+        return "I think it is a person, z_min maybe 3"
+
+    def score(
+        self, prefix: str, suffix: str, continuations: Sequence[str], first_token_only: bool = False
+    ) -> list[float]:
+        return [float("nan")] * len(continuations)
+
+
+class SlowBackend(BrokenBackend):
+    name = "slow"
+
+    def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
+        time.sleep(1.0)
+        return 'yes", "z_min": 3.0, "buffer": 3}'
+
+
+@pytest.fixture(scope="module")
+def rag(resources: Resources) -> SpecExtractor:
+    return SpecExtractor("rag", resources=resources)
+
+
+def test_rag_spec_is_grounded_in_the_kb(rag: SpecExtractor) -> None:
+    result = rag.extract_detailed("a man walking on a grass field")
+    spec = result.spec
+    assert isinstance(spec, SafetySpec)
+    assert spec.source == "rag" and spec.is_dynamic and spec.buffer_m == 3.0
+    assert spec.label in ("pedestrian", "person")
+    assert result.phrase.startswith("man")  # the LLM pointed at the man, not the field
+    assert 1 <= len(spec.evidence) <= 3 and spec.evidence[0].kb_id in ("pedestrian", "person")
+    assert "SmolLM2" in spec.model and "MiniLM" in spec.model
+    assert spec.latency_ms > 0 and spec.caption == "a man walking on a grass field"
+
+
+def test_rag_tells_a_statue_from_a_person(rag: SpecExtractor) -> None:
+    spec = rag.extract("a stone statue of a king in a square")
+    assert spec.source == "rag" and not spec.is_dynamic and spec.buffer_m == 1.0
+
+
+def test_retrieval_mode_is_top1(resources: Resources) -> None:
+    spec = SpecExtractor("retrieval", resources=resources).extract("a yellow school bus")
+    assert spec.source == "retrieval" and spec.label == "bus" and spec.buffer_m == 5.0
+    assert spec.evidence[0].kb_id == "bus" and len(spec.evidence) == 3
+
+
+def test_llm_mode_uses_no_retrieval(resources: Resources) -> None:
+    no_retrieval = replace(resources, retriever=None, names=None, embed=None)
+    spec = SpecExtractor("llm", resources=no_retrieval).extract("a dog running on a beach")
+    assert spec.source == "llm" and spec.evidence == [] and spec.label == "unknown"
+    assert spec.model.startswith("SmolLM2")
+
+
+def test_cache_answers_repeats_instantly(rag: SpecExtractor) -> None:
+    first = rag.extract_detailed("A  brown cow in a field.")
+    again = rag.extract_detailed("a brown cow in a field")  # same after normalisation
+    assert not first.cached and again.cached
+    assert again.spec.latency_ms < 5.0
+    assert again.spec.model_dump(exclude={"latency_ms", "caption"}) == first.spec.model_dump(
+        exclude={"latency_ms", "caption"}
+    )
+
+
+@pytest.mark.parametrize("backend", [BrokenBackend(), GarbageBackend()])
+def test_model_failure_falls_back_conservatively(resources: Resources, backend: BrokenBackend) -> None:
+    broken = replace(resources, backend=backend)
+    for mode in ("rag", "llm"):
+        extractor = SpecExtractor(mode, resources=broken)
+        spec = extractor.extract("a man walking on a grass field")
+        assert spec.source == "fallback" and spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M
+        assert spec.caption == "a man walking on a grass field"
+        assert extractor.extract_detailed("a man walking on a grass field").error  # failures are not cached
+        extractor.close()
+
+
+def test_timeout_falls_back_and_the_late_answer_is_cached(resources: Resources) -> None:
+    settings = resources.settings.model_copy(update={"timeout_s": 0.2})
+    extractor = SpecExtractor("llm", settings=settings, resources=replace(resources, backend=SlowBackend()))
+    started = time.perf_counter()
+    result = extractor.extract_detailed("a person waiting at a bus stop")
+    assert time.perf_counter() - started < 0.9
+    assert result.spec.source == "fallback" and "timeout" in result.error
+    time.sleep(1.2)
+    late = extractor.extract_detailed("a person waiting at a bus stop")
+    assert late.cached and late.spec.source == "llm" and late.spec.buffer_m == 3.0
+    extractor.close()
+
+
+@pytest.mark.parametrize("caption", ["", "   ", "...", None, 42])
+def test_bad_captions_never_raise(rag: SpecExtractor, caption: object) -> None:
+    spec = rag.extract(caption)  # type: ignore[arg-type]
+    assert isinstance(spec, SafetySpec)
+    if caption in ("", "   ", "...", None):
+        assert spec.source == "fallback"
+
+
+def test_kb_extension_changes_the_cache_key(resources: Resources, tmp_path: object) -> None:
+    own = Resources.load(resources.settings, retrieval=True, llm=False)
+    extractor = SpecExtractor("retrieval", resources=own)
+    assert extractor.extract("a robotic mower on a lawn").label != "robot lawn mower"
+    extractor.add_entry(
+        {
+            "id": "robot_mower",
+            "label": "robot lawn mower",
+            "category": "vehicle",
+            "is_dynamic": True,
+            "is_human": False,
+            "z_min": 1.5,
+            "buffer_m": 5.0,
+            "description": "An autonomous lawn mower.",
+            "synonyms": ["robotic mower", "robot mower"],
+        },
+        save_to=f"{tmp_path}/kb.json",
+    )
+    spec = extractor.extract("a robotic mower on a lawn")
+    assert spec.label == "robot lawn mower" and spec.is_dynamic and spec.buffer_m == 5.0
+    extractor.close()

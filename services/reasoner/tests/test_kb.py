@@ -1,0 +1,96 @@
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from llmland_reasoner.kb import KbEntry, KnowledgeBase, default_kb_path
+from pydantic import ValidationError
+
+GOOD = {
+    "id": "robot_mower",
+    "label": "robot lawn mower",
+    "category": "vehicle",
+    "is_dynamic": True,
+    "is_human": False,
+    "z_min": 1.5,
+    "buffer_m": 5.0,
+    "description": "A small autonomous lawn mower driving over a lawn.",
+    "synonyms": ["lawn robot", "robotic mower"],
+}
+
+
+def _write(path: Path, entries: list[dict[str, object]], version: str = "1.0.0") -> Path:
+    path.write_text(json.dumps({"version": version, "entries": entries}), encoding="utf-8")
+    return path
+
+
+def test_packaged_kb_is_valid_and_has_the_paper_defaults() -> None:
+    kb = KnowledgeBase.load()
+    assert len(kb) >= 60
+    categories = {e.category for e in kb.entries}
+    assert categories == {"person", "animal", "vehicle", "structure", "vegetation", "terrain", "lookalike"}
+    assert kb.get("pedestrian").buffer_m == 3.0 and kb.get("pedestrian").is_human
+    assert kb.get("car").buffer_m == 5.0 and kb.get("car").is_dynamic
+    for entry in kb.entries:
+        if entry.is_dynamic:
+            assert entry.z_min >= 1.5, entry.id  # height plus margin
+    assert not kb.get("statue").is_dynamic and not kb.get("scarecrow").is_human
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"buffer_m": -1.0},
+        {"z_min": float("nan")},
+        {"category": "spaceship"},
+        {"id": "Bad Id!"},
+        {"is_human": True, "is_dynamic": False, "category": "person", "buffer_m": 3.0},
+        {"buffer_m": 2.0},  # a moving vehicle needs 5 m
+        {"colour": "red"},  # unknown field
+        {"description": ""},
+    ],
+)
+def test_bad_entries_are_rejected_on_load_and_on_add(tmp_path: Path, change: dict[str, object]) -> None:
+    bad = {**GOOD, **change}
+    with pytest.raises(ValidationError):
+        KnowledgeBase.load(_write(tmp_path / "kb.json", [bad]))
+    kb = KnowledgeBase.load()
+    before = (kb.version, len(kb))
+    with pytest.raises(ValidationError):
+        kb.add(bad)
+    assert (kb.version, len(kb)) == before
+
+
+def test_file_level_errors_are_rejected(tmp_path: Path) -> None:
+    with pytest.raises(ValidationError):
+        KnowledgeBase.load(_write(tmp_path / "dup.json", [GOOD, GOOD]))
+    with pytest.raises(ValidationError):
+        KnowledgeBase.load(_write(tmp_path / "ver.json", [GOOD], version="latest"))
+    with pytest.raises(ValidationError):
+        KnowledgeBase.load(_write(tmp_path / "empty.json", []))
+    (tmp_path / "broken.json").write_text("{not json", encoding="utf-8")
+    with pytest.raises(ValidationError):
+        KnowledgeBase.load(tmp_path / "broken.json")
+
+
+def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path) -> None:
+    kb = KnowledgeBase.load()
+    n, version = len(kb), kb.version
+    added = kb.add(GOOD)
+    assert isinstance(added, KbEntry)
+    assert kb.version != version and kb.version.split(".")[:2] == version.split(".")[:2]
+    assert len(kb) == n + 1 and kb.get("robot_mower").buffer_m == 5.0
+    kb.add({**GOOD, "z_min": 2.0})  # same id replaces
+    assert len(kb) == n + 1 and kb.get("robot_mower").z_min == 2.0
+    target = tmp_path / "sub" / "kb.json"
+    kb.save(target)
+    assert [p.name for p in target.parent.iterdir()] == ["kb.json"]  # no temporary left behind
+    again = KnowledgeBase.load(target)
+    assert again.version == kb.version
+    assert again.entries == kb.entries
+
+
+def test_default_path_is_inside_the_package() -> None:
+    assert default_kb_path().is_file()
+    assert default_kb_path().parent.name == "kb"
