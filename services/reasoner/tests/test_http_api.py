@@ -112,7 +112,8 @@ def test_spec_from_image(base_url: str, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("payload", "status"),
-    [(b"", 400), (b"GIF89a....", 415), (b"\x89PNG\r\n\x1a\n" + b"\0" * 100, 400), (b"\xff\xd8\xff" + b"x" * 70_000, 413)],
+    [(b"", 400), (b"GIF89a....", 415), (b"\x89PNG\r\n\x1a\n" + b"\0" * 100, 400),
+     (b"\xff\xd8\xff" + b"x" * 70_000, 413)],
 )
 def test_spec_rejects_bad_uploads(base_url: str, payload: bytes, status: int) -> None:
     r = httpx.post(f"{base_url}/v1/spec", files={"image": ("x", payload, "application/octet-stream")})
@@ -161,6 +162,7 @@ def test_fuzz_openapi_finds_no_server_errors(base_url: str) -> None:
         @settings(max_examples=15, deadline=None, suppress_health_check=list(HealthCheck), database=None)
         def check(case) -> None:  # type: ignore[no-untyped-def]
             response = case.call(base_url=base_url, timeout=60)
-            assert response.status_code < 500, f"{case.method} {case.path}: {response.status_code} {response.text[:300]}"
+            detail = f"{case.method} {case.path}: {response.status_code} {response.text[:300]}"
+            assert response.status_code < 500, detail
 
         check()
