@@ -8,7 +8,9 @@ so a slower reasoner delivers its spec later and the drone pays for it.
 Unsafe regions (DESIGN §6):
 
 - ``baseline``: every track gets one fixed margin; tracks that the tracker sees moving are
-  swept along their measured velocity (same geometry as the semantic methods).
+  swept along their measured velocity (same geometry as the semantic methods). Only the
+  semantic methods, which know an obstacle is a person or a vehicle, let its buffer grow
+  while it is out of view.
 - semantic methods (``llm``, ``llm-land``): the spec's ``buffer_m`` and ``z_min``; dynamic
   classes (or measured motion) are swept over the horizon. A track with no spec yet, or
   whose spec is older than ``spec_stale_s``, gets the most conservative class.
@@ -133,7 +135,7 @@ class WorldModel:
             # uncertainty grow at walking speed (a person out of view may be anywhere near).
             age = max(0.0, t_s - tr.last_seen_s)
             dt_pred = min(age, s.predict_cap_s)
-            if dynamic:
+            if dynamic and self.semantic:  # knowing it is a person/vehicle that can walk in unseen
                 buffer_m += min(s.unseen_growth_mps * (age - dt_pred), s.unseen_growth_max_m)
             shift = np.array([vel[0], vel[1], 0.0]) * dt_pred
             lo, hi = tr.lo_m + shift, tr.hi_m + shift
