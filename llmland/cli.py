@@ -179,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
     up.set_defaults(func=cmd_up)
 
     bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
-    bench.add_argument("what", choices=["bus", "sim", "mpc", "vle"])
+    bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner"])
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)

@@ -30,6 +30,9 @@ def run(what: str, *, quick: bool = False) -> dict[str, Any]:
     elif what == "mpc":
         from llmland_planner.bench_mpc import run_bench as run_mpc
         figures = {k: round(float(v), 2) for k, v in run_mpc(ticks=100 if quick else 500).items()}
+    elif what == "reasoner":
+        from .reasoner import run_reasoner
+        figures = run_reasoner(quick=quick)
     elif what == "vle":
         from llmland_vle.bench import run_bench as run_vle
         figures = run_vle(quick=quick)

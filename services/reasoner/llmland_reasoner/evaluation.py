@@ -11,6 +11,9 @@ reported separately in ``load_s``. ``peak_rss_mb`` is this process's peak.
 
     python -m llmland_reasoner.evaluation --json                # all modes, one process each
     python -m llmland_reasoner.evaluation --mode rag --data dev
+
+``--mode all`` also runs ``rag_first_word``: rag with the LLM replaced by "the mention starts
+at the first content word", to show what the LLM adds over BLIP's word order.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import resource
 import subprocess
 import sys
@@ -37,6 +41,7 @@ log = logging.getLogger(__name__)
 
 BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
 MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
+_POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word: the no-LLM ablation of rag
 
 
 class CaptionCase(BaseModel):
@@ -155,10 +160,12 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.mode == "all":  # one process per mode: honest load time and peak memory each
         reports = {}
-        for mode in MODES:
+        runs: list[tuple[str, str, dict[str, str]]] = [(mode, mode, {}) for mode in MODES]
+        runs.append(("rag", "rag_first_word", {_POINTER_ENV: "first_word"}))
+        for mode, name, env in runs:
             cmd = [sys.executable, "-m", "llmland_reasoner.evaluation", "--mode", mode, "--data", args.data, "--json"]
-            out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-            reports[mode] = json.loads(out)[mode]
+            out = subprocess.run(cmd, check=True, capture_output=True, text=True, env={**os.environ, **env}).stdout
+            reports[name] = json.loads(out)[mode]
     else:
         reports = {args.mode: evaluate(args.mode, args.data).model_dump()}
     if args.json:

@@ -58,7 +58,8 @@ class SpecExtractor:
     ) -> None:
         self.mode: Mode = mode
         self.settings = settings or (resources.settings if resources else ReasonerSettings())
-        self.resources = resources or Resources.load(self.settings, retrieval=mode != "llm", llm=mode != "retrieval")
+        needs_llm = mode == "llm" or (mode == "rag" and self.settings.rag_pointer == "llm")
+        self.resources = resources or Resources.load(self.settings, retrieval=mode != "llm", llm=needs_llm)
         self._cache: OrderedDict[tuple[str, str, str], Extraction] = OrderedDict()
         self._cache_lock = threading.Lock()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reasoner-{mode}")
@@ -132,7 +133,7 @@ class SpecExtractor:
             return run_retrieval(caption, res)
         if self.mode == "llm":
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
-        return run_rag(caption, res, s.rag_context_in_prompt)
+        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer)
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)

@@ -6,9 +6,11 @@ cache: a call truncates llama.cpp's memory back to the prefix (``memory_seq_rm``
 evaluates only the suffix; a prefix seen before is restored from a saved sequence state.
 
 Two operations:
-- ``complete`` — grammar-constrained generation (GBNF), at most ``max_tokens`` tokens;
+- ``complete`` — grammar-constrained generation (GBNF), at most ``max_tokens`` tokens
+  (the ``llm`` baseline writes its JSON this way);
 - ``score`` — the log-probability of each of several continuations after the prompt
-  (no sampling); the continuations share one evaluation of the prompt.
+  (no sampling); they share one evaluation of the prompt, and with ``first_token_only``
+  nothing else is evaluated (``rag`` reads where the answer starts this way).
 """
 
 from __future__ import annotations
@@ -158,6 +160,8 @@ class LlamaCppBackend:
             out: list[float] = []
             for text in continuations:
                 cont = self._llm.tokenize(text.encode("utf-8"), add_bos=False, special=False)
+                if not cont:
+                    raise ValueError("empty continuation")
                 total = float(first[cont[0]])
                 if len(cont) > 1 and not first_token_only:
                     batch = self._llm._batch

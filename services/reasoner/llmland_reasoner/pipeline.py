@@ -86,21 +86,30 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
     )
 
 
-def run_rag(caption: str, res: Resources, context_in_prompt: bool) -> Outcome:
-    if res.backend is None or res.names is None:
-        raise RuntimeError("rag needs both the LLM and retrieval")
+def run_rag(caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm") -> Outcome:
+    """LLM-Land. ``pointer="first_word"`` is the no-LLM ablation: the mention simply starts
+    at the caption's first content word."""
+    if res.names is None:
+        raise RuntimeError("rag needs retrieval")
     hits = _retrieve(caption, res)
     words = caption_words(caption)
     positions = content_positions(words)
-    labels = [entry.label for entry, _ in hits] if context_in_prompt else None
-    logprobs = res.backend.score(
-        prompts.rag_prefix(context_in_prompt),
-        prompts.rag_suffix(caption, labels),
-        [words[i] for i in positions],
-        first_token_only=True,
-    )
+    if pointer == "first_word":
+        logprobs = [0.0] + [-1.0] * (len(positions) - 1)
+        name = "first-word"
+    else:
+        if res.backend is None:
+            raise RuntimeError("rag needs the LLM")
+        labels = [entry.label for entry, _ in hits] if context_in_prompt else None
+        logprobs = res.backend.score(
+            prompts.rag_prefix(context_in_prompt),
+            prompts.rag_suffix(caption, labels),
+            [words[i] for i in positions],
+            first_token_only=True,
+        )
+        name = res.backend.name
     mention = choose_mention(words, positions, logprobs)
     chosen = ground(mention.window, hits, res.names)
     evidence = [(entry.id, round(score, 4)) for entry, score in chosen.ranked]
-    model = f"{res.backend.name}+{_embed_name(res)}"
+    model = f"{name}+{_embed_name(res)}"
     return Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)

@@ -88,6 +88,8 @@ RAG_SHOTS: tuple[tuple[str, tuple[str, ...], str], ...] = (
     ("there is a old truck parked in the snow", ("snow", "truck", "parked car"), "old truck parked"),
     ("a drawing of a horse on a sign", ("horse", "road sign", "poster"), "drawing"),
     ("a child in a yellow raincoat standing in a puddle", ("water", "child", "person"), "child"),
+    ("a courtyard with a fountain in the middle", ("parking lot", "statue", "water"), "fountain"),
+    ("a sandy beach with two surfers on it", ("sand", "crowd", "boat"), "surfers"),
 )
 _RAG_ANSWER = '{"obstacle": "'
 

@@ -48,6 +48,8 @@ class ReasonerSettings(BaseSettings):
     #: put the retrieved labels into the rag prompt (the paper's layout); off by default because
     #: the 135M model then points at context words instead of the obstacle (dev set: 91% vs 96%)
     rag_context_in_prompt: bool = False
+    #: who points at the obstacle in the caption: the LLM, or (ablation, no LLM) the first content word
+    rag_pointer: Literal["llm", "first_word"] = "llm"
     cache_size: int = Field(default=4096, ge=0)
     http_host: str = "127.0.0.1"
     http_port: int = Field(default=8080, ge=1, le=65535)

@@ -7,7 +7,9 @@ to be poor: that is the paper's point). Run with ``-s`` to see the figures.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
+from llmland_reasoner import prompts
 from llmland_reasoner.evaluation import EvalReport, evaluate, load_cases
 from llmland_reasoner.resources import Resources
 
@@ -25,6 +27,8 @@ def test_eval_set_is_large_and_covers_every_group() -> None:
     assert {c.buffer_class for c in cases} == {"ground", "static", "person", "animal", "vehicle"}
     dev = {c.caption for c in load_cases("dev")}
     assert not dev & {c.caption for c in cases}  # tuning set and held-out set are disjoint
+    shots = {c for c, _, _ in prompts.RAG_SHOTS} | {c for c, _ in prompts.PAPER_SHOTS}
+    assert not shots & (dev | {c.caption for c in cases})  # no few-shot example is scored
 
 
 def test_rag_accuracy_lower_bound(resources: Resources, record_property: Callable[[str, object], None]) -> None:
@@ -37,8 +41,10 @@ def test_rag_accuracy_lower_bound(resources: Resources, record_property: Callabl
 
 def test_baselines_are_reported(resources: Resources, record_property: Callable[[str, object], None]) -> None:
     retrieval = evaluate("retrieval", "eval", resources=resources)
+    no_llm = resources.settings.model_copy(update={"rag_pointer": "first_word"})
+    first_word = evaluate("rag", "eval", resources=replace(resources, settings=no_llm), settings=no_llm)
     llm = evaluate("llm", "eval", resources=resources, stride=6)  # a subset: ~0.5 s a caption
-    for report in (retrieval, llm):
-        record_property(report.mode, report.model_dump(exclude={"misses"}))
+    for name, report in (("retrieval", retrieval), ("rag_first_word", first_word), ("llm", llm)):
+        record_property(name, report.model_dump(exclude={"misses"}))
         print(_summary(report))
         assert 0.0 <= report.acc_both <= 1.0

@@ -70,6 +70,14 @@ def test_retrieval_mode_is_top1(resources: Resources) -> None:
     assert spec.evidence[0].kb_id == "bus" and len(spec.evidence) == 3
 
 
+def test_rag_ablation_without_the_llm(resources: Resources) -> None:
+    no_llm = resources.settings.model_copy(update={"rag_pointer": "first_word"})
+    extractor = SpecExtractor("rag", settings=no_llm, resources=replace(resources, backend=None))
+    spec = extractor.extract("a scarecrow in a field")
+    assert spec.source == "rag" and spec.model.startswith("first-word") and spec.label == "scarecrow"
+    extractor.close()
+
+
 def test_llm_mode_uses_no_retrieval(resources: Resources) -> None:
     no_retrieval = replace(resources, retriever=None, names=None, embed=None)
     spec = SpecExtractor("llm", resources=no_retrieval).extract("a dog running on a beach")
