@@ -14,10 +14,11 @@ from llmland_reasoner.evaluation import EvalReport, evaluate, load_cases
 from llmland_reasoner.resources import Resources
 
 
-def _summary(report: EvalReport) -> str:
+def _summary(report: EvalReport, name: str = "") -> str:
     return (
-        f"{report.mode}: both {report.acc_both:.3f} (dynamic {report.acc_dynamic:.3f}, buffer {report.acc_buffer:.3f})"
-        f" on {report.n}; cold p50 {report.latency_cold_ms['p50']} ms, cpu p50 {report.cpu_cold_ms['p50']} ms"
+        f"{name or report.mode}: both {report.acc_both:.3f}"
+        f" (dynamic {report.acc_dynamic:.3f}, buffer {report.acc_buffer:.3f}) on {report.n};"
+        f" cold p50 {report.latency_cold_ms['p50']} ms, cpu p50 {report.cpu_cold_ms['p50']} ms"
     )
 
 
@@ -46,5 +47,5 @@ def test_baselines_are_reported(resources: Resources, record_property: Callable[
     llm = evaluate("llm", "eval", resources=resources, stride=6)  # a subset: ~0.5 s a caption
     for name, report in (("retrieval", retrieval), ("rag_first_word", first_word), ("llm", llm)):
         record_property(name, report.model_dump(exclude={"misses"}))
-        print(_summary(report))
+        print(_summary(report, name))
         assert 0.0 <= report.acc_both <= 1.0
