@@ -1,0 +1,33 @@
+"""Planner ticks: a regression test for a closed-loop bug, and yaw through ±π."""
+
+import math
+
+import numpy as np
+from llmland_planner.planner import Planner
+from llmland_planner.settings import PlannerSettings
+from llmland_schemas import MissionGoal, VehicleState
+
+
+def _state(pos, yaw=0.0, t=0.0, seq=0):
+    return VehicleState(stamp=t, seq=seq, position_m=pos, velocity_mps=(0, 0, 0), quat_xyzw=(0, 0, 0, 1),
+                        euler_rpy_rad=(0.0, 0.0, yaw), body_rates_rps=(0, 0, 0), episode_id="e")
+
+
+def test_mpc_floor_is_the_ground_not_the_raised_hover_goal():
+    """The MPC floor was the goal altitude: below a raised hover point every QP leaned on slack."""
+    pl = Planner(PlannerSettings(cruise_altitude_m=5.2))
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 2.7), target_m=(0, 0, 0)))
+    out = pl.tick(_state((0.0, -9.0, 2.7)))
+    assert out.mpc is not None and out.mpc.ok
+    assert out.mpc.max_slack < 0.05
+    assert np.all(np.abs(out.body_rates_rps[:2]) < 5.0)
+
+
+def test_yaw_reference_takes_the_short_way_through_pi():
+    """Heading across ±π turns the short way (the planner wraps the reference; the MPC does too)."""
+    pl = Planner()
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(9.0, -0.05, 3.0), target_m=(0, 0, 0)))
+    assert pl._yaw_ref > 3.0  # bearing to the target ≈ +π
+    out = pl.tick(_state((9.0, -0.05, 3.0), yaw=-math.pi + 0.02))
+    assert out.mpc is not None and out.mpc.ok
+    assert out.body_rates_rps[2] < 0.5  # the short way is a small negative turn, not +2π − ε
