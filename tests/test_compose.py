@@ -19,15 +19,21 @@ def test_compose_file_validates_with_docker_compose() -> None:
         if os.environ.get("CI"):
             pytest.fail("docker-compose missing in CI: scripts/install.sh --test installs it")
         pytest.skip("docker-compose client not installed (scripts/install.sh --test installs it)")
+    env = {**os.environ, "LLMLAND_REASONER_API_TOKEN": "test-token"}
     proc = subprocess.run([exe, "-f", str(REPO / "compose.yaml"), "config", "-q"], capture_output=True, text=True,
-                          timeout=60, cwd=REPO)
+                          timeout=60, cwd=REPO, env=env)
     assert proc.returncode == 0, proc.stderr
+    # the reasoner's HTTP API leaves loopback in compose: it must refuse to start without a token
+    env.pop("LLMLAND_REASONER_API_TOKEN")
+    proc = subprocess.run([exe, "-f", str(REPO / "compose.yaml"), "config", "-q"], capture_output=True, text=True,
+                          timeout=60, cwd=REPO, env=env)
+    assert proc.returncode != 0 and "API token" in proc.stderr
 
 
 def test_compose_services_use_the_router_and_health_checks() -> None:
     spec = yaml.safe_load((REPO / "compose.yaml").read_text())
     services = spec["services"]
-    assert "router" in services
+    assert {"router", "sim", "planner", "vle", "reasoner"} <= set(services)
     for name, svc in services.items():
         if name in ("router", "cli"):
             continue
