@@ -15,7 +15,7 @@ from llmland_schemas import MissionGoal
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .episodes import PILOT_FOR_METHOD, EpisodeRunner, new_episode_id
-from .launch import Stack, free_port, hub_bus
+from .launch import SERVICE_MODULES, Stack, free_port, hub_bus
 from .oracle_specs import OracleSpecPublisher
 from .results import summarize, write_results_csv
 
@@ -173,7 +173,8 @@ def build_parser() -> argparse.ArgumentParser:
     trials.set_defaults(func=cmd_trials)
 
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
-    up.add_argument("--services", nargs="+", default=["sim", "pilot"])
+    up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
+                    choices=sorted(SERVICE_MODULES))
     up.add_argument("--drone-id", default="d0")
     up.add_argument("--port", type=int, default=7447)
     up.set_defaults(func=cmd_up)
