@@ -209,10 +209,10 @@ class Planner:
 
     @staticmethod
     def _path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
-        if not regions or len(path.p) < 2:
-            return False
+        if not regions or len(path.p) < 3:
+            return False  # the first segment starts in the start clearance: not checked
         lo, hi = boxes_array(regions)
-        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi))) if len(path.p) > 2 else False
+        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
 
     # ------------------------------------------------------------------ reference
     def _reference(self, pos: FloatArray, goal: FloatArray) -> tuple[FloatArray, FloatArray, list | None]:

@@ -142,13 +142,13 @@ class WorldModel:
             centre = 0.5 * (lo + hi)
             radius = float(0.5 * np.hypot(hi[0] - lo[0], hi[1] - lo[1]))
             height = float(hi[2] - lo[2])
-            out += from_obstacle(
+            boxes = from_obstacle(
                 centre[:2], radius, height, buffer_m, z_min,
                 velocity_xy=vel if moving else None,
-                horizon_s=s.sweep_horizon_s if dynamic and moving else 0.0,
+                horizon_s=s.sweep_horizon_s if moving else 0.0,
                 obj_id=tr.track_id, label=label, z_ground_m=float(lo[2]),
             )
-            if dynamic and not moving:
-                for r in out[-1:]:
-                    r.is_dynamic = True
+            for box in boxes:
+                box.is_dynamic = dynamic  # a standing person is still dynamic
+            out += boxes
         return out

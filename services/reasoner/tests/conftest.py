@@ -23,3 +23,19 @@ def settings(index_dir: Path) -> ReasonerSettings:
 @pytest.fixture(scope="session")
 def resources(settings: ReasonerSettings) -> Iterator[Resources]:
     yield Resources.load(settings, retrieval=True, llm=True)
+
+
+@pytest.fixture()
+def robot_mower() -> dict[str, object]:
+    """A valid KB entry the shipped KB lacks (a fresh dict per test)."""
+    return {
+        "id": "robot_mower",
+        "label": "robot lawn mower",
+        "category": "vehicle",
+        "is_dynamic": True,
+        "is_human": False,
+        "z_min": 1.5,
+        "buffer_m": 5.0,
+        "description": "A small autonomous lawn mower driving over a lawn.",
+        "synonyms": ["lawn robot", "robotic mower", "robot mower"],
+    }

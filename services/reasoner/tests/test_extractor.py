@@ -128,22 +128,14 @@ def test_bad_captions_never_raise(rag: SpecExtractor, caption: object) -> None:
         assert spec.source == "fallback"
 
 
-def test_kb_extension_changes_the_cache_key(resources: Resources, tmp_path: object) -> None:
+def test_kb_extension_changes_the_cache_key(
+    resources: Resources, tmp_path: object, robot_mower: dict[str, object]
+) -> None:
     own = Resources.load(resources.settings, retrieval=True, llm=False)
     extractor = SpecExtractor("retrieval", resources=own)
     assert extractor.extract("a robotic mower on a lawn").label != "robot lawn mower"
     extractor.add_entry(
-        {
-            "id": "robot_mower",
-            "label": "robot lawn mower",
-            "category": "vehicle",
-            "is_dynamic": True,
-            "is_human": False,
-            "z_min": 1.5,
-            "buffer_m": 5.0,
-            "description": "An autonomous lawn mower.",
-            "synonyms": ["robotic mower", "robot mower"],
-        },
+        robot_mower,
         save_to=f"{tmp_path}/kb.json",
     )
     spec = extractor.extract("a robotic mower on a lawn")

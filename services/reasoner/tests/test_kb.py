@@ -7,18 +7,6 @@ import pytest
 from llmland_reasoner.kb import KbEntry, KnowledgeBase, default_kb_path
 from pydantic import ValidationError
 
-GOOD = {
-    "id": "robot_mower",
-    "label": "robot lawn mower",
-    "category": "vehicle",
-    "is_dynamic": True,
-    "is_human": False,
-    "z_min": 1.5,
-    "buffer_m": 5.0,
-    "description": "A small autonomous lawn mower driving over a lawn.",
-    "synonyms": ["lawn robot", "robotic mower"],
-}
-
 
 def _write(path: Path, entries: list[dict[str, object]], version: str = "1.0.0") -> Path:
     path.write_text(json.dumps({"version": version, "entries": entries}), encoding="utf-8")
@@ -51,8 +39,10 @@ def test_packaged_kb_is_valid_and_has_the_paper_defaults() -> None:
         {"description": ""},
     ],
 )
-def test_bad_entries_are_rejected_on_load_and_on_add(tmp_path: Path, change: dict[str, object]) -> None:
-    bad = {**GOOD, **change}
+def test_bad_entries_are_rejected_on_load_and_on_add(
+    tmp_path: Path, change: dict[str, object], robot_mower: dict[str, object]
+) -> None:
+    bad = {**robot_mower, **change}
     with pytest.raises(ValidationError):
         KnowledgeBase.load(_write(tmp_path / "kb.json", [bad]))
     kb = KnowledgeBase.load()
@@ -62,11 +52,11 @@ def test_bad_entries_are_rejected_on_load_and_on_add(tmp_path: Path, change: dic
     assert (kb.version, len(kb)) == before
 
 
-def test_file_level_errors_are_rejected(tmp_path: Path) -> None:
+def test_file_level_errors_are_rejected(tmp_path: Path, robot_mower: dict[str, object]) -> None:
     with pytest.raises(ValidationError):
-        KnowledgeBase.load(_write(tmp_path / "dup.json", [GOOD, GOOD]))
+        KnowledgeBase.load(_write(tmp_path / "dup.json", [robot_mower, robot_mower]))
     with pytest.raises(ValidationError):
-        KnowledgeBase.load(_write(tmp_path / "ver.json", [GOOD], version="latest"))
+        KnowledgeBase.load(_write(tmp_path / "ver.json", [robot_mower], version="latest"))
     with pytest.raises(ValidationError):
         KnowledgeBase.load(_write(tmp_path / "empty.json", []))
     (tmp_path / "broken.json").write_text("{not json", encoding="utf-8")
@@ -74,14 +64,14 @@ def test_file_level_errors_are_rejected(tmp_path: Path) -> None:
         KnowledgeBase.load(tmp_path / "broken.json")
 
 
-def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path) -> None:
+def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path, robot_mower: dict[str, object]) -> None:
     kb = KnowledgeBase.load()
     n, version = len(kb), kb.version
-    added = kb.add(GOOD)
+    added = kb.add(robot_mower)
     assert isinstance(added, KbEntry)
     assert kb.version != version and kb.version.split(".")[:2] == version.split(".")[:2]
     assert len(kb) == n + 1 and kb.get("robot_mower").buffer_m == 5.0
-    kb.add({**GOOD, "z_min": 2.0})  # same id replaces
+    kb.add({**robot_mower, "z_min": 2.0})  # same id replaces
     assert len(kb) == n + 1 and kb.get("robot_mower").z_min == 2.0
     target = tmp_path / "sub" / "kb.json"
     kb.save(target)

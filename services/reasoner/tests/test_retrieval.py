@@ -47,7 +47,9 @@ def test_embedding_is_normalised(resources: Resources) -> None:
     assert abs(sum(x * x for x in vec) - 1.0) < 1e-4
 
 
-def test_index_is_persisted_and_reloaded_by_kb_version(resources: Resources, tmp_path: Path) -> None:
+def test_index_is_persisted_and_reloaded_by_kb_version(
+    resources: Resources, tmp_path: Path, robot_mower: dict[str, object]
+) -> None:
     assert resources.embed is not None
     kb = KnowledgeBase.load()
     built = Retriever(kb, resources.embed, index_dir=tmp_path)
@@ -60,19 +62,7 @@ def test_index_is_persisted_and_reloaded_by_kb_version(resources: Resources, tmp
     assert [(e.id, round(s, 6)) for e, s in reloaded.retrieve(caption)] == [
         (e.id, round(s, 6)) for e, s in built.retrieve(caption)
     ]
-    kb.add(
-        {
-            "id": "robot_mower",
-            "label": "robot lawn mower",
-            "category": "vehicle",
-            "is_dynamic": True,
-            "is_human": False,
-            "z_min": 1.5,
-            "buffer_m": 5.0,
-            "description": "An autonomous lawn mower.",
-            "synonyms": ["robotic mower"],
-        }
-    )
+    kb.add(robot_mower)
     extended = Retriever(kb, resources.embed, index_dir=tmp_path)
     assert not extended.loaded_from_disk  # new version, new index
     assert extended.retrieve("a robotic mower cutting grass")[0][0].id == "robot_mower"

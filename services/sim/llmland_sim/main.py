@@ -30,7 +30,7 @@ from llmland_schemas import (
     key,
 )
 from llmland_schemas.bus import Bus
-from llmland_schemas.frames import decode_frame
+from llmland_schemas.frames import encode_frame
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .mailbox import CommandMailbox
@@ -129,10 +129,10 @@ class SimService:
                     self.recorder.truth(truth)
                 next_truth += truth_period
             if sim.t_s + 1e-9 >= next_cam:
-                frame = sim.camera_frame()
-                bus.publish_bytes(self.k[Topic.CAMERA], frame)
+                frame = sim.render_frame()
+                bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m))
                 if self.recorder:
-                    self.recorder.camera(decode_frame(frame))
+                    self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
                 next_cam += cam_period
             state = sim.vehicle_state()
             bus.publish(self.k[Topic.STATE], state)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 from llmland_schemas import (
+    CameraFrame,
     CameraFrameHeader,
     CameraIntrinsics,
     ControlCommand,
@@ -205,7 +206,12 @@ class Simulation:
         )
 
     def camera_frame(self) -> bytes:
-        """Render the RGB-D camera and pack it with its typed header."""
+        """Render the RGB-D camera and pack it with its typed header (wire bytes)."""
+        frame = self.render_frame()
+        return encode_frame(frame.header, frame.rgb, frame.depth_m)
+
+    def render_frame(self) -> CameraFrame:
+        """Render the RGB-D camera: typed header + pixel arrays."""
         assert self.quad is not None and self.camera is not None and self.mission is not None
         st = self.quad.state()
         r = self.camera.render(st.pos_m, st.quat_xyzw, with_seg=False)
@@ -221,7 +227,7 @@ class Simulation:
             vehicle_position_m=vec3(st.pos_m),
             episode_id=self.mission.episode_id,
         )
-        return encode_frame(header, r.rgb, r.depth_m.astype(np.float32))
+        return CameraFrame(header=header, rgb=r.rgb, depth_m=r.depth_m.astype(np.float32))
 
     def truth(self) -> GroundTruth:
         assert self.world is not None and self.mission is not None

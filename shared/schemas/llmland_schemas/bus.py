@@ -89,12 +89,14 @@ class Bus:
         self._closed = False
 
     # ------------------------------------------------------------------ publish
-    def publisher(self, key: str, *, express: bool = False) -> zenoh.Publisher:
+    def publisher(self, key: str, *, express: bool = False,
+                  encoding: zenoh.Encoding | None = None) -> zenoh.Publisher:
+        """The publisher for ``key``, declared on first use (JSON unless told otherwise)."""
         with self._lock:
             pub = self._publishers.get(key)
             if pub is None:
                 pub = self.session.declare_publisher(
-                    key, encoding=zenoh.Encoding.APPLICATION_JSON, express=express
+                    key, encoding=encoding or zenoh.Encoding.APPLICATION_JSON, express=express
                 )
                 self._publishers[key] = pub
             return pub
@@ -105,12 +107,7 @@ class Bus:
 
     def publish_bytes(self, key: str, payload: bytes, *, encoding: zenoh.Encoding | None = None) -> None:
         """Publish raw bytes (camera frames)."""
-        with self._lock:
-            pub = self._publishers.get(key)
-            if pub is None:
-                pub = self.session.declare_publisher(key, encoding=encoding or zenoh.Encoding.APPLICATION_OCTET_STREAM)
-                self._publishers[key] = pub
-        pub.put(payload)
+        self.publisher(key, encoding=encoding or zenoh.Encoding.APPLICATION_OCTET_STREAM).put(payload)
 
     # ------------------------------------------------------------------ subscribe
     def subscribe(self, key: str, model: type[M], callback: Callable[[str, M], None]) -> None:
