@@ -2,8 +2,11 @@
 
 For planner tests and ablations: every obstacle in ``sim/truth`` gets the spec of its class
 (a built-in table of the paper's defaults, overridden by the mission's ``given_specs``),
-published on ``reasoner/spec`` with ``source="given"`` and zero latency, exactly where the
-reasoner would publish. The planner still sees geometry only from depth; it attaches
+published on ``reasoner/spec`` with ``source="given"``, exactly where the reasoner would
+publish. Each message claims a fixed ``latency_ms`` (default 50 ms, a fast reasoner): the
+planner applies it at ``stamp + latency``, which in lockstep is later than it can arrive
+over the bus, so a seeded episode is reproducible (with zero latency, whether a spec made
+the same tick would depend on the bus's timing). The planner still sees geometry only from depth; it attaches
 these specs to its tracks by position, as it does the reasoner's.
 """
 
@@ -46,9 +49,10 @@ DEFAULT_SPECS: dict[str, SafetySpec] = {
 class OracleSpecPublisher:
     """Turns each GroundTruth into a SafetySpecMessage for the running episode."""
 
-    def __init__(self, bus: Bus, drone_id: str = "d0") -> None:
+    def __init__(self, bus: Bus, drone_id: str = "d0", latency_ms: float = 50.0) -> None:
         self.bus = bus
         self.drone_id = drone_id
+        self.latency_ms = latency_ms
         self._lock = threading.Lock()
         self._table: dict[str, dict[str, SafetySpec]] = {}
         self.published = 0
@@ -75,7 +79,7 @@ class OracleSpecPublisher:
         msg = SafetySpecMessage(
             drone_id=self.drone_id, stamp=truth.stamp, seq=truth.seq, frame_seq=truth.seq,
             scene=_spec("scene", any(o.spec.is_dynamic for o in objects), 0.0, 0.0),
-            objects=objects, latency_ms=0.0, episode_id=truth.episode_id,
+            objects=objects, latency_ms=self.latency_ms, episode_id=truth.episode_id,
         )
         self.bus.publish(self._spec_key, msg)
         self.published += 1

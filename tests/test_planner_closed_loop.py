@@ -23,11 +23,13 @@ def test_baseline_lands_on_target_among_static_obstacles(tmp_path: Path) -> None
     assert (tmp_path / "trials.csv").read_text().count("\n") == 4
 
 
-@pytest.mark.xfail(strict=False, reason=(
-    "issue 3, open: with the spec given, seed 3 kept 4.0, 3.1 and 2.7 m in some runs but came to 1.0 m "
-    "and once collided in others: a walking person reaching the pad unseen is not yet handled reliably"))
 def test_given_pedestrian_spec_keeps_the_buffer() -> None:
-    """A pedestrian near the path whose spec (3 m buffer) is given directly: the drone keeps it."""
+    """A pedestrian near the path whose spec (3 m buffer) is given directly: the drone keeps it.
+
+    Seed 3: the person walks to the pad and lingers around it, so the drone must hold high
+    and never descend into their reach (the in-process run of this seed kept 3.5 m). Lockstep
+    runs are reproducible (search bounded by expansions, fixed adoption time).
+    """
     proc = run_cli("land", "--method", "llm-land", "--specs", "oracle", "--seed", SEED, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     r = json.loads(proc.stdout)

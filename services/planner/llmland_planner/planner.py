@@ -3,9 +3,14 @@
 ``tick(state)`` runs once per control tick: unsafe regions → landing phase → reference
 (a searched path, or a straight descent) → corridors → one MPC QP → body rates + thrust.
 
-Path search runs on a worker thread so a slow search never blocks the control loop. Its
-result is adopted only once the sim clock has advanced by the search's measured wall time
-(latency-honest in lockstep, where the sim may run faster than real time).
+Path search runs on a worker thread so a slow search never blocks the control loop. When
+its plan is adopted depends on the mission's clock:
+
+- ``realtime``: the search is bounded by ``search_budget_s`` of wall time and its plan is
+  adopted once the sim clock has advanced by the search's measured wall time;
+- ``lockstep``: the search is bounded by ``search_max_expansions`` (not wall time) and its
+  plan is adopted exactly ``search_budget_s`` of sim time after it started (the tick waits
+  for the worker if it is late), so a seeded episode flies the same way on any machine.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from llmland_schemas.frames import CameraFrame
 
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .dynamics import FloatArray, ModelParams
-from .landing import LandingLogic, Phase
+from .landing import LandingLogic, Phase, descent_profile
 from .mpc import MpcController, MpcResult
 from .path import Path, resample
 from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
@@ -91,6 +96,7 @@ class Planner:
         self._last_replan_s = -1e9
         self._yaw_ref = 0.0
         self.failed_searches = 0
+        self._lockstep = False
         self._force_replan = False
         self._last_t = 0.0
 
@@ -99,6 +105,13 @@ class Planner:
         assert mission.target_m is not None and mission.start_m is not None
         with self._lock:
             self.mission = mission
+            self._lockstep = mission.clock == "lockstep"
+            if self._lockstep:
+                self.search_cfg = replace(self.search_cfg, time_budget_s=float("inf"),
+                                          max_expansions=self.settings.search_max_expansions)
+            else:
+                self.search_cfg = replace(self.search_cfg, time_budget_s=self.settings.search_budget_s,
+                                          max_expansions=SearchConfig.max_expansions)
             self.world = WorldModel(self.settings, mission.method)
             self.landing = LandingLogic(np.asarray(mission.target_m, dtype=float), self.settings)
             self.active, self._job = None, None
@@ -139,11 +152,9 @@ class Planner:
         n, dt = self.settings.horizon, self.settings.mpc_dt_s
         halfspaces = None
         if phase == Phase.DESCEND:
-            v_d = self.settings.descent_speed_mps
-            z = np.maximum(goal[2] + 0.03, pos[2] - v_d * dt * np.arange(1, n + 2))
-            ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z])
-            ref_vel = np.tile([0.0, 0.0, -v_d], (n + 1, 1))
-            ref_vel[z <= goal[2] + 0.031, 2] = 0.0
+            z, vz = descent_profile(float(pos[2]), float(goal[2]), dt, n + 2, self.settings)
+            ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z[1:]])
+            ref_vel = np.column_stack([np.zeros(n + 1), np.zeros(n + 1), vz[1:]])
             self.active = None
         else:
             snapshot = self._maybe_replan(t, pos, vel, goal, regions)
@@ -167,7 +178,14 @@ class Planner:
                       regions: list[UnsafeRegion]) -> PlanSnapshot | None:
         snapshot = None
         job = self._job
-        if job is not None and job.done.is_set() and t >= job.t0_s + job.wall_s:
+        due = False
+        if job is not None and self._lockstep:
+            due = t >= job.t0_s + self.settings.search_budget_s - 1e-9
+            if due:
+                job.done.wait()  # a fixed adoption time; the worker is normally done by now
+        elif job is not None:
+            due = job.done.is_set() and t >= job.t0_s + job.wall_s
+        if job is not None and due:
             self._job = None
             if job.result is not None:
                 self.active = job.result

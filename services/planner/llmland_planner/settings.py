@@ -17,6 +17,10 @@ class PlannerSettings(BaseSettings):
     max_halfspaces: int = 8
     # search and replanning
     search_budget_s: float = 0.08
+    #: lockstep clock: the search is bounded by expansions (not wall time) and its plan is
+    #: adopted exactly ``search_budget_s`` of sim time after the search started, so a seeded
+    #: episode is reproducible whatever the machine's load (≈ 260 µs per expansion here)
+    search_max_expansions: int = 400
     replan_period_s: float = 1.0
     sweep_horizon_s: float = 2.0
     # semantics
@@ -35,11 +39,20 @@ class PlannerSettings(BaseSettings):
     max_altitude_m: float = 10.0
     landing_disc_radius_m: float = 0.8
     align_radius_m: float = 0.35
-    descent_speed_mps: float = 0.5
+    #: descent: sink rate √(2·brake·h) within [min, max] (m/s): fast high up, soft at the ground
+    descent_speed_mps: float = 1.2
+    descent_min_speed_mps: float = 0.3
+    descent_brake_mps2: float = 0.8
+    #: below this height (m) a started descent is finished rather than aborted
+    commit_height_m: float = 0.5
+    #: how fast (m/s) a person or vehicle may close in unseen while the drone descends
+    reach_speed_mps: float = 1.5
     touchdown_height_m: float = 0.12
     hold_clear_s: float = 0.5
     #: yaw rate while holding and descending, so the forward-down camera sees all around
-    scan_yaw_rate_rps: float = 0.6
+    scan_yaw_rate_rps: float = 1.0
+    #: yaw swept (rad) in each hold before a descent: 360° less the camera's 90° field of view
+    scan_sweep_rad: float = 4.8
     #: perception
     blob_stride: int = 2
     max_range_m: float = 30.0

@@ -74,6 +74,9 @@ class ObstacleTracker:
         velocity_alpha: float = 0.5,
         min_hits_for_velocity: int = 2,
         forget_out_of_view_after_s: float = 30.0,
+        predict_cap_s: float = 1.0,
+        gate_growth_mps: float = 1.5,
+        gate_max_m: float = 5.0,
     ) -> None:
         if not 0.0 < velocity_alpha <= 1.0:
             raise ValueError(f"velocity_alpha must be in (0, 1], got {velocity_alpha}")
@@ -82,6 +85,9 @@ class ObstacleTracker:
         self.velocity_alpha = velocity_alpha
         self.min_hits_for_velocity = max(2, min_hits_for_velocity)
         self.forget_out_of_view_after_s = forget_out_of_view_after_s
+        self.predict_cap_s = predict_cap_s
+        self.gate_growth_mps = gate_growth_mps
+        self.gate_max_m = gate_max_m
         self._tracks: list[TrackedObstacle] = []
         self._raw_velocity: dict[str, FloatArray] = {}
         self._next_id = 0
@@ -99,9 +105,10 @@ class ObstacleTracker:
             pred = np.array([self.predict(t, stamp_s)[:2] for t in self._tracks])  # (T, 2)
             obs = np.array([b.centroid_m[:2] for b in blobs], dtype=np.float64)  # (B, 2)
             cost = np.linalg.norm(pred[:, None, :] - obs[None, :, :], axis=-1)
-            gated = np.where(cost <= self.gate_m, cost, 1e6)
+            gate = self._gates(stamp_s, blobs)  # (T, B)
+            gated = np.where(cost <= gate, cost, 1e6)
             for ti, bi in zip(*linear_sum_assignment(gated), strict=True):
-                if cost[ti, bi] <= self.gate_m:
+                if cost[ti, bi] <= gate[ti, bi]:
                     self._correct(self._tracks[ti], blobs[bi], stamp_s)
                     matched_tracks.add(int(ti))
                     matched_blobs.add(int(bi))
@@ -121,6 +128,21 @@ class ObstacleTracker:
                 kept.append(self._new_track(blob, stamp_s))
         self._tracks = kept
         return list(self._tracks)
+
+    def _gates(self, stamp_s: float, blobs: Sequence[Blob]) -> FloatArray:
+        """Association gates (T, B) in metres.
+
+        ``gate_m`` for every pair; for a track unseen for a while, the gate widens at
+        ``gate_growth_mps`` (up to ``gate_max_m``) towards blobs of about its height, so a
+        person who walked on while out of view is picked up again instead of leaving a
+        ghost track behind.
+        """
+        age = np.array([max(0.0, stamp_s - t.last_seen_s) for t in self._tracks])
+        wide = np.minimum(self.gate_m + self.gate_growth_mps * age, max(self.gate_m, self.gate_max_m))
+        t_h = np.array([t.hi_m[2] - t.lo_m[2] for t in self._tracks])
+        b_h = np.array([b.hi_m[2] - b.lo_m[2] for b in blobs])
+        alike = np.abs(t_h[:, None] - b_h[None, :]) <= 0.4
+        return np.where(alike, wide[:, None], self.gate_m)
 
     def _new_track(self, blob: Blob, stamp_s: float) -> TrackedObstacle:
         track = TrackedObstacle(
@@ -155,16 +177,16 @@ class ObstacleTracker:
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps = self._raw_velocity[track.track_id].copy()
 
-    @staticmethod
-    def predict(track: TrackedObstacle, t_s: float) -> FloatArray:
-        """(3,) centroid (m) of ``track`` at time ``t_s`` under constant velocity."""
-        return np.asarray(track.centroid_m + track.velocity_mps * (t_s - track.last_seen_s), dtype=np.float64)
+    def predict(self, track: TrackedObstacle, t_s: float) -> FloatArray:
+        """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""
+        dt = min(max(0.0, t_s - track.last_seen_s), self.predict_cap_s)
+        return np.asarray(track.centroid_m + track.velocity_mps * dt, dtype=np.float64)
 
     def tracks(self, at_s: float | None = None) -> list[TrackedObstacle]:
         """Copies of the live tracks; with ``at_s`` (s), centroid and bounds are moved to that time."""
         out = []
         for t in self._tracks:
-            shift = np.zeros(3) if at_s is None else t.velocity_mps * (at_s - t.last_seen_s)
+            shift = np.zeros(3) if at_s is None else self.predict(t, at_s) - t.centroid_m
             out.append(
                 replace(
                     t,
@@ -188,3 +210,8 @@ class ObstacleTracker:
         dist = [float(np.linalg.norm(t.centroid_m[:2] - p)) for t in self._tracks]
         i = int(np.argmin(dist))
         return self._tracks[i] if dist[i] <= max_dist_m else None
+
+    def match_all(self, position_m: Sequence[float] | FloatArray, radius_m: float) -> list[TrackedObstacle]:
+        """Every live track (not copies) whose last-seen centroid is within ``radius_m`` horizontally."""
+        p = np.asarray(position_m, dtype=np.float64)[:2]
+        return [t for t in self._tracks if float(np.linalg.norm(t.centroid_m[:2] - p)) <= radius_m]

@@ -41,6 +41,8 @@ class PendingSpec:
     apply_at_s: float
     position_m: FloatArray
     spec: SafetySpec
+    #: horizontal radius (m) of the object: every track within it takes the spec
+    radius_m: float = 0.0
 
 
 def frustum_fn(frame: CameraFrame, max_range_m: float):  # type: ignore[no-untyped-def]
@@ -58,13 +60,19 @@ def frustum_fn(frame: CameraFrame, max_range_m: float):  # type: ignore[no-untyp
     return visible
 
 
+def more_careful(a: SafetySpec, b: SafetySpec) -> SafetySpec:
+    """The spec asking more of the drone: dynamic first, then the larger buffer, then ``z_min``."""
+    return b if (b.is_dynamic, b.buffer_m, b.z_min) > (a.is_dynamic, a.buffer_m, a.z_min) else a
+
+
 class WorldModel:
     """Tracks + semantic specs → unsafe regions for one episode."""
 
     def __init__(self, settings: PlannerSettings, method: str) -> None:
         self.settings = settings
         self.method = method
-        self.tracker = ObstacleTracker(gate_m=1.5, forget_after_s=2.0)
+        self.tracker = ObstacleTracker(gate_m=1.5, forget_after_s=2.0, predict_cap_s=settings.predict_cap_s,
+                                       gate_growth_mps=settings.reach_speed_mps)
         self.pending: list[PendingSpec] = []
         self.specs_applied = 0
         self.spec_latencies_ms: list[float] = []
@@ -88,7 +96,8 @@ class WorldModel:
             return
         release = msg.stamp + msg.latency_ms / 1e3
         for obj in msg.objects:
-            self.pending.append(PendingSpec(release, np.asarray(obj.centroid_m, dtype=float), obj.spec))
+            radius = 0.5 * max(obj.size_m[0], obj.size_m[1])
+            self.pending.append(PendingSpec(release, np.asarray(obj.centroid_m, dtype=float), obj.spec, radius))
         self.spec_latencies_ms.append(msg.latency_ms)
 
     def release_specs(self, t_s: float) -> None:
@@ -97,11 +106,17 @@ class WorldModel:
         if not due:
             return
         self.pending = [s for s in self.pending if s.apply_at_s > t_s]
+        # Several specs may land on one track (a person walking past a rock merges into one
+        # depth blob): the track takes the most careful of them, never the last one in.
+        batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
+        # One object may also be several blobs (a tree's trunk and crown): each track within
+        # the object's footprint takes its spec, not only the nearest one.
         for s in due:
-            track = self.tracker.match(s.position_m, self.settings.spec_match_m)
-            if track is None:
-                continue
-            track.meta["spec"] = s.spec
+            for track in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m)):
+                prev = batch.get(track.track_id)
+                batch[track.track_id] = (track, s.spec if prev is None else more_careful(prev[1], s.spec))
+        for track, spec in batch.values():
+            track.meta["spec"] = spec
             track.meta["spec_t"] = t_s
             self.specs_applied += 1
             self.version += 1

@@ -41,8 +41,8 @@ def test_velocity_of_moving_blob() -> None:
     assert np.linalg.norm(t.velocity_mps - [1.0, 0.0, 0.0]) < 0.15
     assert t.velocity_mps[2] == 0.0
     assert abs(tracker.predict(t, t.last_seen_s + 1.0)[0] - (t.centroid_m[0] + t.velocity_mps[0])) < 1e-9
-    (ahead,) = tracker.tracks(at_s=t.last_seen_s + 2.0)
-    assert np.allclose(ahead.lo_m - t.lo_m, 2.0 * t.velocity_mps)
+    (ahead,) = tracker.tracks(at_s=t.last_seen_s + 2.0)  # extrapolated for predict_cap_s = 1 s only
+    assert np.allclose(ahead.lo_m - t.lo_m, 1.0 * t.velocity_mps)
 
 
 def test_crossing_objects_keep_ids() -> None:
@@ -104,3 +104,33 @@ def test_match_attaches_meta() -> None:
     found.meta["cls"] = "person"
     tracks = tracker.update([blob(1.0, 1.0), blob(4.1, 0.0, blob_id=1)], DT_S)
     assert {t.track_id: t.meta.get("cls") for t in tracks} == {"t0": None, "t1": "person"}
+
+
+def test_person_reappearing_after_walking_unseen_keeps_its_track() -> None:
+    """Regression: a person out of view for 2 s came back 3 m further on as a new track,
+    leaving a ghost whose growing buffer blocked the landing pad."""
+    tracker = ObstacleTracker(gate_m=1.5, gate_growth_mps=1.5, gate_max_m=5.0)
+    tracker.update([blob(0.0, 0.0)], 0.0)
+    tracks = tracker.update([blob(3.0, 0.0)], 2.0)
+    assert [t.track_id for t in tracks] == ["t0"]
+    short = blob(3.0, 0.0, height_m=0.4)  # a rock-sized blob is not taken for the person
+    tracker2 = ObstacleTracker(gate_m=1.5, gate_growth_mps=1.5, gate_max_m=5.0)
+    tracker2.update([blob(0.0, 0.0)], 0.0)
+    assert sorted(t.track_id for t in tracker2.update([short], 2.0)) == ["t0", "t1"]
+
+
+def test_unseen_walker_is_forgotten_where_it_was_predicted() -> None:
+    """Regression: visibility used an unbounded constant-velocity prediction, so a walker
+    predicted to leave the view was never checked (nor forgotten) where the planner kept it."""
+    tracker = ObstacleTracker(forget_after_s=2.0, predict_cap_s=1.0)
+    for k in range(5):
+        tracker.update([blob(2.0 + 1.0 * k * DT_S, 0.0)], k * DT_S)
+
+    def in_view(p: np.ndarray) -> bool:
+        return bool(abs(p[0]) < 6.0)  # 1 s of prediction stays in view, 10 s would not
+
+    t = 4 * DT_S
+    for _ in range(20):
+        t += DT_S
+        tracks = tracker.update([], t, visible_fn=in_view)
+    assert tracks == []

@@ -67,3 +67,31 @@ def test_walking_obstacle_is_swept_along_its_motion():
     regions = wm.regions(1.4)
     assert len(regions) > 1 and all(r.is_dynamic for r in regions)
     assert max(r.hi[0] for r in regions) > 7.1 + 2.0  # swept ahead over the horizon
+
+
+def test_person_and_rock_on_one_track_keep_the_persons_spec():
+    """Regression (seed 4): a person walking past a rock merges into one blob; the track
+    flipped between 'person' and 'rock' depending on which spec came last."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    person = _person_spec(0.0, 0.0)
+    rock = SafetySpec(is_dynamic=False, z_min=0.0, buffer_m=0.5, label="rock", source="given")
+    rock_obj = ObjectSpec(obj_id="r0", centroid_m=(5.3, 0.2, 0.2), size_m=(0.6, 0.6, 0.4), spec=rock)
+    wm.on_spec(person.model_copy(update={"objects": [*person.objects, rock_obj]}))
+    regions = wm.regions(0.0)
+    assert regions[0].label == "person" and regions[0].is_dynamic
+    wm.on_spec(person.model_copy(update={"objects": [rock_obj, *person.objects], "stamp": 0.1}))
+    assert wm.regions(0.1)[0].label == "person"
+
+
+def test_every_blob_of_one_tree_takes_its_spec():
+    """Regression (open_field seed 5): a tree's trunk and crown are two blobs; only the
+    nearest took the tree's spec, the crown stayed 'unknown' (most conservative, growing)
+    and its region covered the landing pad up to 10 m."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    crown = _blob(-1.35, -5.8, 5.0)
+    wm.tracker.update([_blob(-1.35, -6.25, 2.0), crown], 0.0)
+    tree = SafetySpec(is_dynamic=False, z_min=0.0, buffer_m=1.0, label="tree", source="given")
+    wm.on_spec(SafetySpecMessage(stamp=0.0, scene=tree, objects=[
+        ObjectSpec(obj_id="tree_0", centroid_m=(-1.4, -6.3, 2.5), size_m=(3.2, 3.2, 5.1), spec=tree)]))
+    assert [r.label for r in wm.regions(0.0)] == ["tree", "tree"]

@@ -25,8 +25,11 @@ class SimSettings(BaseSettings):
     renderer: Literal["auto", "tiny", "egl"] = "auto"
     truth_hz: float = 10.0
     gui: bool = False
-    #: Lockstep: longest wall time to wait for the command echoing a tick's seq.
-    lockstep_timeout_s: float = 0.25
+    #: Lockstep: longest wall time to wait for the command echoing a tick's seq. Generous:
+    #: lockstep trades wall time for reproducibility, and a planner tick that waits for its
+    #: search worker on a loaded machine can take a few hundred ms; only a dead planner
+    #: should run into it (overruns are still counted from the command's ``tick_ms``).
+    lockstep_timeout_s: float = 1.0
     #: Hold the last command this long (sim time) before the vehicle-side failsafe.
     command_hold_s: float = 0.2
     #: Record every episode to this .rrd (may contain ``{episode_id}``) ...

@@ -24,7 +24,7 @@ from llmland_sim.world import (
     footprint_distance,
 )
 from llmland_sim.world.actors import INTERNAL_DT_S, PED_SPEED_RANGE_MPS, VEH_SPEED_RANGE_MPS, actor_rng
-from llmland_sim.world.worlds import OBSTACLE_GAP_M
+from llmland_sim.world.worlds import OBSTACLE_GAP_M, PED_START_CLEARANCE_M
 
 logger = logging.getLogger(__name__)
 
@@ -122,6 +122,8 @@ def test_world_guarantees(name: str, seed: int) -> None:
             assert o.footprint is not None
             assert o.footprint.distance_to_point(w.target_m) >= TARGET_CLEARANCE_M
             assert o.footprint.distance_to_point(w.start_m) >= START_CLEARANCE_M
+        for person in w.people():  # nobody starts inside the drone's buffer
+            assert np.linalg.norm(person.position()[:2] - w.start_m[:2]) >= PED_START_CLEARANCE_M, person.obj_id
         for a, b in itertools.combinations(statics, 2):
             assert a.footprint is not None and b.footprint is not None
             assert footprint_distance(a.footprint, b.footprint) >= OBSTACLE_GAP_M - 1e-9, (a.obj_id, b.obj_id)
@@ -272,3 +274,14 @@ def test_vehicle_speed_and_lane() -> None:
         if abs(pos[0]) < 29.0:  # on a straight: in its lane, driving on the right
             assert abs(abs(pos[1] - 10.0) - 1.75) < 1e-6
             assert (pos[1] < 10.0) == (math.cos(yaw) > 0.0)
+
+
+@pytest.mark.parametrize("seed", range(1, 21))
+def test_pedestrians_start_clear_of_the_drone(seed: int) -> None:
+    """Regression: open_field seed 8 put a person 1.1 m from the drone start (a close call at t = 0)."""
+    c, w = _build("open_field", seed)
+    try:
+        for person in w.people():
+            assert np.linalg.norm(person.position()[:2] - w.start_m[:2]) >= PED_START_CLEARANCE_M, person.obj_id
+    finally:
+        p.disconnect(c)

@@ -58,6 +58,9 @@ TARGET_CLEARANCE_M = 2.5
 _TARGET_PLACE_CLEARANCE_M = 3.0
 #: Guaranteed horizontal clearance (m) between the start (x, y) and any static footprint.
 START_CLEARANCE_M = 2.0
+#: Pedestrians start at least this far (m, horizontally) from the drone start: a person
+#: already inside the drone's buffer at t = 0 would score a close call no planner could avoid.
+PED_START_CLEARANCE_M = 5.0
 #: Minimum gap (m) between static obstacle footprints.
 OBSTACLE_GAP_M = 0.2
 #: Probability that a pedestrian near the flight path picks its next goal around the target.
@@ -564,6 +567,7 @@ class _Builder:
                 f"person_{k}",
                 actor_rng(self.seed, k),
                 region,
+                start_xy=self._pedestrian_start(region, lay, is_free, k),
                 target_xy=target_xy,
                 target_prob=target_prob,
                 is_free=is_free,
@@ -575,6 +579,17 @@ class _Builder:
             obj = WorldObject(self.next_id("person"), "person", body, True, (0.3, 0.62, shapes.PERSON_HEIGHT_M))
             obj.actor = ped
             self.objects.append(obj)
+
+    def _pedestrian_start(self, region: WalkRegion, lay: _Layout, is_free: Callable[[float, float], bool],
+                          k: int) -> FloatArray | None:
+        """A free start in ``region`` at least :data:`PED_START_CLEARANCE_M` from the drone start."""
+        rng = actor_rng(self.seed, 1000 + k)
+        for _ in range(500):
+            q = region.sample(rng, margin_m=0.5)
+            if is_free(float(q[0]), float(q[1])) and np.linalg.norm(q - lay.start_xy[:2]) >= PED_START_CLEARANCE_M:
+                return q
+        logger.warning("no pedestrian start %.0f m from the drone start; sampling anywhere", PED_START_CLEARANCE_M)
+        return None
 
     def add_vehicle_actor(self, loop: LaneLoop, index: int) -> None:
         veh = Vehicle(f"vehicle_actor_{index}", actor_rng(self.seed, 100 + index), loop, ground_height=self.ground)
