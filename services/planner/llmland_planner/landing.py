@@ -61,8 +61,8 @@ def descent_speed(height_m: float, settings: PlannerSettings) -> float:
     [``descent_min_speed_mps``, ``descent_speed_mps``].
     """
     s = settings
-    return float(np.clip(math.sqrt(2.0 * s.descent_brake_mps2 * max(height_m, 0.0)),
-                         s.descent_min_speed_mps, s.descent_speed_mps))
+    v = math.sqrt(2.0 * s.descent_brake_mps2 * max(height_m, 0.0))
+    return min(max(v, s.descent_min_speed_mps), s.descent_speed_mps)
 
 
 def descent_profile(z0_m: float, ground_m: float, dt_s: float, count: int,
@@ -82,12 +82,28 @@ def descent_profile(z0_m: float, ground_m: float, dt_s: float, count: int,
     return z, vz
 
 
-def time_to_touchdown(height_m: float, settings: PlannerSettings, dt_s: float = 0.05) -> float:
-    """Seconds the descent profile needs from ``height_m`` down to the touchdown height."""
-    h, t = height_m, 0.0
-    while h > settings.touchdown_height_m and t < 60.0:
-        h -= descent_speed(h, settings) * dt_s
-        t += dt_s
+def time_to_touchdown(height_m: float, settings: PlannerSettings) -> float:
+    """Seconds :func:`descent_speed` needs from ``height_m`` down to the touchdown height.
+
+    Closed form (it runs every control tick): ``1/v(h)`` integrated over the three pieces
+    of the profile — constant ``v_min`` low down, ``√(2·a·h)`` between, constant ``v_max``
+    high up.
+    """
+    s = settings
+    a, v_lo, v_hi = s.descent_brake_mps2, s.descent_min_speed_mps, s.descent_speed_mps
+    h_lo, h_hi = v_lo ** 2 / (2.0 * a), v_hi ** 2 / (2.0 * a)  # where √(2·a·h) meets the limits
+
+    def span(lo: float, hi: float) -> tuple[float, float]:  # [h_td, h] ∩ [lo, hi]
+        return max(lo, s.touchdown_height_m), min(hi, height_m)
+
+    t = 0.0
+    lo, hi = span(0.0, h_lo)
+    t += max(0.0, hi - lo) / v_lo
+    lo, hi = span(h_lo, h_hi)
+    if hi > lo:
+        t += math.sqrt(2.0 * hi / a) - math.sqrt(2.0 * lo / a)
+    lo, hi = span(h_hi, math.inf)
+    t += max(0.0, hi - lo) / v_hi
     return t
 
 

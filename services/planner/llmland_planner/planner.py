@@ -96,16 +96,18 @@ class Planner:
         self._last_replan_s = -1e9
         self._yaw_ref = 0.0
         self.failed_searches = 0
-        self._lockstep = False
         self._force_replan = False
         self._last_t = 0.0
+
+    @property
+    def _lockstep(self) -> bool:
+        return self.mission is not None and self.mission.clock == "lockstep"
 
     # ------------------------------------------------------------------ episode inputs
     def start(self, mission: MissionGoal) -> None:
         assert mission.target_m is not None and mission.start_m is not None
         with self._lock:
             self.mission = mission
-            self._lockstep = mission.clock == "lockstep"
             if self._lockstep:
                 self.search_cfg = replace(self.search_cfg, time_budget_s=float("inf"),
                                           max_expansions=self.settings.search_max_expansions)
@@ -178,12 +180,13 @@ class Planner:
                       regions: list[UnsafeRegion]) -> PlanSnapshot | None:
         snapshot = None
         job = self._job
-        due = False
-        if job is not None and self._lockstep:
+        if job is None:
+            due = False
+        elif self._lockstep:
             due = t >= job.t0_s + self.settings.search_budget_s - 1e-9
             if due:
                 job.done.wait()  # a fixed adoption time; the worker is normally done by now
-        elif job is not None:
+        else:
             due = job.done.is_set() and t >= job.t0_s + job.wall_s
         if job is not None and due:
             self._job = None

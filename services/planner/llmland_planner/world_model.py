@@ -106,11 +106,10 @@ class WorldModel:
         if not due:
             return
         self.pending = [s for s in self.pending if s.apply_at_s > t_s]
-        # Several specs may land on one track (a person walking past a rock merges into one
-        # depth blob): the track takes the most careful of them, never the last one in.
+        # One object may be several blobs (a tree's trunk and crown): every track within its
+        # footprint takes its spec. One blob may be several objects (a person walking past a
+        # rock): the track takes the most careful spec, never the last one in.
         batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
-        # One object may also be several blobs (a tree's trunk and crown): each track within
-        # the object's footprint takes its spec, not only the nearest one.
         for s in due:
             for track in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m)):
                 prev = batch.get(track.track_id)

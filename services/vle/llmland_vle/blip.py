@@ -15,28 +15,26 @@ tested offline.
 from __future__ import annotations
 
 import logging
-import threading
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import torch
-from llmland_schemas import Caption
 from PIL import Image
 
-from .captioner import CaptionKind
+from .captioner import BatchCaptioner, CaptionKind
 from .crops import check_rgb
 
 log = logging.getLogger(__name__)
 
 
-class BlipCaptioner:
+class BlipCaptioner(BatchCaptioner):
     """Captions images with a local BLIP v1 checkpoint (crops and frames alike)."""
 
     backend = "blip"
 
     def __init__(self, model_dir: Path | str, *, threads: int = 2, max_new_tokens: int = 20) -> None:
+        super().__init__()
         from transformers import BlipForConditionalGeneration, BlipProcessor
 
         path = Path(model_dir)
@@ -48,31 +46,20 @@ class BlipCaptioner:
         self.model.eval()
         self.max_new_tokens = max_new_tokens
         self.model_version = f"blip:{path.resolve().name}"
-        self._lock = threading.Lock()
         n = sum(p.numel() for p in self.model.parameters())
         log.info("BLIP loaded from %s: %d parameters", path, n)
 
-    def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
-        return self.caption_batch([image_rgb], kind=kind)[0]
-
-    def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
-        if not images:
-            return []
-        t0 = time.perf_counter()
+    def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
         pil = [Image.fromarray(check_rgb(im)) for im in images]
         inputs = self.processor(images=pil, return_tensors="pt")
-        with self._lock, torch.inference_mode():
+        with torch.inference_mode():
             out = self.model.generate(
                 pixel_values=inputs["pixel_values"],
                 max_new_tokens=self.max_new_tokens,
                 num_beams=1,
                 do_sample=False,
             )
-        texts = self.processor.batch_decode(out, skip_special_tokens=True)
-        per_ms = (time.perf_counter() - t0) * 1e3 / len(images)
-        return [
-            Caption(text=t.strip(), backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts
-        ]
+        return [t.strip() for t in self.processor.batch_decode(out, skip_special_tokens=True)]
 
 
 def build_tiny_blip(out_dir: Path, vocab_file: Path | None = None, image_size: int = 384, seed: int = 0) -> Path:

@@ -13,6 +13,8 @@ Backends that need simulator truth rather than pixels (``oracle``) also implemen
 
 from __future__ import annotations
 
+import threading
+import time
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
@@ -41,6 +43,35 @@ class Captioner(Protocol):
     def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption: ...
 
     def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]: ...
+
+
+class BatchCaptioner:
+    """Base of the pixel backends: one lock, batch timing and :class:`Caption` wrapping.
+
+    Subclasses set ``backend`` and ``model_version`` and implement :meth:`_generate`
+    (texts for checked, non-empty batches), which runs under the model lock.
+    """
+
+    backend: str
+    model_version: str
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+
+    def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
+        raise NotImplementedError
+
+    def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
+        return self.caption_batch([image_rgb], kind=kind)[0]
+
+    def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
+        if not images:
+            return []
+        t0 = time.perf_counter()
+        with self._lock:
+            texts = self._generate(images, kind)
+        per_ms = (time.perf_counter() - t0) * 1e3 / len(images)
+        return [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
 
 
 @runtime_checkable

@@ -20,7 +20,7 @@ T = TypeVar("T")
 class LatestFrameWorker(Generic[T]):
     """One worker thread running ``handle(item)`` on the newest submitted item."""
 
-    def __init__(self, handle: Callable[[T], None], name: str = "vle-latest-frame") -> None:
+    def __init__(self, handle: Callable[[T], object], name: str = "vle-latest-frame") -> None:
         self._handle = handle
         self._cond = threading.Condition()
         self._pending: T | None = None

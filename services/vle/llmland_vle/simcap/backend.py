@@ -9,17 +9,14 @@ from __future__ import annotations
 
 import json
 import logging
-import threading
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
-from llmland_schemas import Caption
 
-from ..captioner import CaptionKind
+from ..captioner import BatchCaptioner, CaptionKind
 from ..crops import check_rgb, resize
 from .model import ModelConfig, SimCapNet, images_to_tensor
 from .vocab import Vocab
@@ -74,12 +71,13 @@ def load_model(weights_dir: Path | None = None) -> tuple[SimCapNet, Vocab, str]:
     return model, vocab, str(meta.get("version", "unknown"))
 
 
-class SimcapCaptioner:
+class SimcapCaptioner(BatchCaptioner):
     """Captions crops (``kind="object"``) and whole frames (``kind="frame"``)."""
 
     backend = "simcap"
 
     def __init__(self, weights_dir: Path | None = None, *, threads: int = 2, crop_size: int | None = None) -> None:
+        super().__init__()
         torch.set_num_threads(threads)
         self.model, self.vocab, version = load_model(weights_dir)
         self.logit_bias = bias_vector(self.vocab, load_meta(weights_dir).get("logit_bias"))
@@ -89,22 +87,12 @@ class SimcapCaptioner:
         if self.crop_size != cfg.crop_size:
             log.warning("crop_size %d differs from the %d px simcap was trained on", self.crop_size, cfg.crop_size)
         self.frame_size = cfg.frame_size
-        self._lock = threading.Lock()
         n = sum(p.numel() for p in self.model.parameters())
         log.info("simcap %s loaded: %d parameters, crops %d px, frames %d px", version, n, self.crop_size,
                  self.frame_size)
 
-    def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
-        return self.caption_batch([image_rgb], kind=kind)[0]
-
-    def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
-        if not images:
-            return []
-        t0 = time.perf_counter()
+    def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
         size = self.frame_size if kind == "frame" else self.crop_size
         batch = images_to_tensor([resize(check_rgb(im), size) for im in images])
-        with self._lock:
-            ids = self.model.greedy(batch, self.vocab.bos(kind), self.vocab.eos, logit_bias=self.logit_bias)
-        texts = [self.vocab.decode(row.tolist()) for row in ids]
-        per_ms = (time.perf_counter() - t0) * 1e3 / len(images)
-        return [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
+        ids = self.model.greedy(batch, self.vocab.bos(kind), self.vocab.eos, logit_bias=self.logit_bias)
+        return [self.vocab.decode(row.tolist()) for row in ids]

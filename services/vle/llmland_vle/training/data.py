@@ -99,7 +99,8 @@ def _render_world(
             seen = {int(i): int(c) for i, c in zip(ids, counts, strict=True) if int(i) in by_body}
             items = [o for o in world.objects if o.cls != "pad"]
             truth = [
-                TruthItem(o.obj_id, o.cls, tuple(o.position()), tuple(o.size_m), tuple(o.velocity()), o.dynamic)
+                TruthItem(o.obj_id, o.cls, tuple(o.position()), (o.size_m[0], o.size_m[1], o.size_m[2]),
+                          tuple(o.velocity()), o.dynamic)
                 for o in items
             ]
             captions: dict[int, str] = {}
