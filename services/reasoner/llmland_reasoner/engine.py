@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 from pathlib import Path
+from typing import Any
 
 from llmland_schemas import SafetySpec
 
@@ -50,6 +51,15 @@ class ReasonerEngine:
     def models(self) -> dict[str, str]:
         return dict(self.resources.model_names)
 
+    def health(self) -> tuple[str, dict[str, Any] | None]:
+        """``("ok" | "degraded", llm worker health or None)``: degraded while the LLM is down."""
+        backend = self.resources.backend
+        report = getattr(backend, "health", None)
+        llm = report() if callable(report) else None
+        status = "degraded" if llm is not None and llm.get("state") != "ready" else "ok"
+        return status, llm
+
     def close(self) -> None:
         for ex in self._extractors.values():
             ex.close()
+        self.resources.close()

@@ -138,7 +138,7 @@ class SpecExtractor:
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)
         name = self.resources.backend.name if self.resources.backend is not None else ""
-        spec = SafetySpec.conservative(caption, model=name, latency_ms=_ms(started))
+        spec = SafetySpec.conservative(caption, model=name, latency_ms=_ms(started), reason=error)
         return Extraction(spec=spec, error=error)
 
     def _cache_get(self, key: tuple[str, str, str]) -> Extraction | None:

@@ -47,9 +47,12 @@ class KbView(BaseModel):
 
 
 class Health(BaseModel):
+    #: ``ok``, or ``degraded`` while the LLM worker is down (specs are then conservative fallbacks)
     status: str
     mode: str
     models: dict[str, str]
+    #: the LLM worker: state (ready / restarting / failed), restarts, crashes, last error
+    llm: dict[str, Any] | None = None
 
 
 def _check_image(data: bytes, limit: int) -> None:
@@ -86,7 +89,8 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
 
     @app.get("/healthz", response_model=Health, tags=["health"])
     def healthz() -> Health:
-        return Health(status="ok", mode=settings.mode, models=engine.models())
+        status, llm = engine.health()
+        return Health(status=status, mode=settings.mode, models=engine.models(), llm=llm)
 
     @app.post("/v1/reason", response_model=SafetySpec, dependencies=guarded, tags=["spec"])
     def reason(req: ReasonRequest) -> SafetySpec:

@@ -16,6 +16,7 @@ from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline
 from .grounding import NameIndex
 from .kb import KbEntry, KnowledgeBase
 from .llm import LlamaCppBackend, LlmBackend
+from .llm_worker import WorkerLlmBackend
 from .retrieval import Retriever
 from .settings import ReasonerSettings
 
@@ -24,6 +25,10 @@ log = logging.getLogger(__name__)
 
 def make_backend(settings: ReasonerSettings) -> LlmBackend:
     """The LLM backend named by ``settings.llm_backend``."""
+    if settings.llm_backend == "llama_cpp" and settings.llm_isolation == "process":
+        return WorkerLlmBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx,
+                                call_timeout_s=2.0 * settings.timeout_s,
+                                restart_backoff_s=settings.llm_restart_backoff_s)
     if settings.llm_backend == "llama_cpp":
         return LlamaCppBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx)
     raise ValueError(f"unknown llm backend {settings.llm_backend!r}")
@@ -78,6 +83,12 @@ class Resources:
             self.kb.save(save_to)
         self.rebuild_retriever()
         return added
+
+    def close(self) -> None:
+        """Stop what runs outside this process (the LLM worker)."""
+        close = getattr(self.backend, "close", None)
+        if callable(close):
+            close()
 
     @property
     def model_names(self) -> dict[str, str]:

