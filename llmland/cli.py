@@ -10,66 +10,49 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import get_args
 
-from llmland_schemas import MissionGoal
+from llmland_schemas import EpisodeResult, MissionGoal
+from llmland_schemas.messages import MethodName, WorldName
 from llmland_schemas.service import configure_logging, shutdown_event
 
-from .episodes import PILOT_FOR_METHOD, EpisodeRunner, new_episode_id
-from .launch import SERVICE_MODULES, Stack, free_port, hub_bus
-from .oracle_specs import OracleSpecPublisher
+from .launch import SERVICE_MODULES, Stack, hub_bus
 from .results import summarize, write_results_csv
+from .stacks import StackConfig, make_mission, open_stack
 
 log = logging.getLogger("llmland")
 
-WORLDS = ["open_field", "urban", "forest_edge"]
-METHODS = list(PILOT_FOR_METHOD)
+WORLDS = list(get_args(WorldName))
+METHODS = list(get_args(MethodName))
 
 
-def _services_for(args: argparse.Namespace) -> list[str]:
-    names = ["sim", PILOT_FOR_METHOD[args.method]]
-    if _pipeline(args):
-        names += ["vle", "reasoner"]
-    return names
+def _config(args: argparse.Namespace) -> StackConfig:
+    return StackConfig(method=args.method, specs=args.specs, llm_model_path=args.llm_model)
 
 
-def _pipeline(args: argparse.Namespace) -> bool:
-    """Semantic methods with real perception: VLE captions → reasoner specs."""
-    return args.method in ("llm", "llm-land") and args.specs == "pipeline"
+def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | None = None) -> MissionGoal:
+    return make_mission(cfg, world=args.world, seed=seed, timeout_s=args.timeout, drone_id=args.drone_id,
+                        clock=args.clock, n_pedestrians=args.pedestrians, latency_model=args.latency_model, rrd=rrd)
 
 
-def _mission(args: argparse.Namespace, seed: int, rrd: str | None = None) -> MissionGoal:
-    return MissionGoal(
-        drone_id=args.drone_id,
-        episode_id=new_episode_id(args.world, seed, args.method),
-        world=args.world,
-        seed=seed,
-        method=args.method,
-        clock=args.clock,
-        timeout_s=args.timeout,
-        n_pedestrians=args.pedestrians,
-        rrd_path=rrd,
-        max_rtf=1.0 if _pipeline(args) else None,
-    )
-
-
-@contextmanager
-def _stack(args: argparse.Namespace) -> Iterator[EpisodeRunner]:
-    """Hub session + service processes for ``args.method``; yields an episode runner."""
-    port = args.port or free_port()
-    env = {"LLMLAND_REASONER_MODE": "rag" if args.method == "llm-land" else "llm",
-           "LLMLAND_REASONER_HTTP_PORT": str(free_port())}
-    with hub_bus(port) as bus, Stack(port, args.drone_id, env=env, log_level=args.service_log_level) as stack:
-        stack.start(_services_for(args))
-        if args.specs == "oracle" and args.method in ("llm", "llm-land"):
-            OracleSpecPublisher(bus, args.drone_id)
-        stack.wait_alive(bus)
-        yield EpisodeRunner(bus, args.drone_id)
+def summary_line(r: EpisodeResult) -> str:
+    """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time."""
+    td = f"{r.touchdown_error_m:.2f} m" if r.touchdown_error_m is not None else "—"
+    closest = f"{min(r.min_person_distance_m.values()):.2f} m" if r.min_person_distance_m else "no person"
+    lat = f"{r.spec_latency_ms_mean:.0f} ms" if r.spec_latency_ms_mean is not None else "—"
+    degraded = f", perception degraded {r.perception_degraded_s:.1f} s" if r.perception_degraded else ""
+    return (f"{r.method} {r.world} seed {r.seed}: {r.outcome.upper()} — touchdown error {td}, "
+            f"closest person {closest}, spec latency {lat}, {r.sim_time_s:.1f} s flown in "
+            f"{r.wall_time_s:.1f} s wall{degraded}")
 
 
 def cmd_land(args: argparse.Namespace) -> int:
     rrd = str(Path(args.rrd).resolve()) if args.rrd else None
-    with _stack(args) as runner:
-        result = runner.run(_mission(args, args.seed, rrd))
+    cfg = _config(args)
+    with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
+        result = running.runner.run(_mission(args, cfg, args.seed, rrd))
+    sys.stderr.write(summary_line(result) + "\n")
+    sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1
 
@@ -87,14 +70,40 @@ def cmd_trials(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     rows = []
-    with _stack(args) as runner:
+    cfg = _config(args)
+    with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
         for seed in _parse_seeds(args.seeds):
-            r = runner.run(_mission(args, seed))
+            r = running.runner.run(_mission(args, cfg, seed))
             rows.append(r)
-            log.info("seed %d: %s (touchdown error %s m)", seed, r.outcome, r.touchdown_error_m)
+            log.info("%s", summary_line(r))
     write_results_csv(out / "trials.csv", rows)
     summary = summarize(rows)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+    return 0
+
+
+def _csv(text: str | None) -> list[str] | None:
+    return [x.strip() for x in text.split(",") if x.strip()] if text else None
+
+
+def cmd_experiment(args: argparse.Namespace) -> int:
+    """One of the paper's experiments into ``--out``: trials.csv, summary.json, results.md, plots."""
+    from .bench import machine
+    from .experiment import run_experiment
+
+    methods, worlds = _csv(args.methods), _csv(args.worlds)
+    for m in methods or []:
+        if m not in METHODS:
+            raise SystemExit(f"unknown method {m!r}; choose from {', '.join(METHODS)}")
+    for w in worlds or []:
+        if w not in WORLDS:
+            raise SystemExit(f"unknown world {w!r}; choose from {', '.join(WORLDS)}")
+    summary = run_experiment(
+        args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
+        worlds=worlds, latency_model=args.latency_model, specs=args.specs,
+        ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
+        resume=args.resume, log_level=args.service_log_level, machine=machine()["machine"])
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")
     return 0
 
@@ -142,13 +151,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--world", choices=WORLDS, default="open_field")
-    p.add_argument("--method", choices=METHODS, default="baseline")
+    p.add_argument("--method", choices=METHODS, default="llm-land",
+                   help="llm-land (RAG, the default), llm (no retrieval), baseline (geometry, 1 m margin), "
+                        "conservative (geometry, every obstacle a person), reference (no obstacles)")
     p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
     p.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
     p.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the world's)")
     p.add_argument("--specs", choices=["pipeline", "oracle", "none"], default="pipeline",
                    help="semantic methods: where specs come from — pipeline (VLE captions → reasoner), "
                         "oracle (given from ground truth), none")
+    p.add_argument("--latency-model", default=None,
+                   help="lockstep: when specs take effect — measured (default for the pipeline), fixed:<ms>, "
+                        "normal:<mean_ms>,<sd_ms> (fixed:50 for oracle specs)")
+    p.add_argument("--llm-model", default=None, help="a GGUF file for the reasoner (default: SmolLM2-135M)")
     p.add_argument("--drone-id", default="d0")
     p.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
 
@@ -171,6 +186,24 @@ def build_parser() -> argparse.ArgumentParser:
     trials.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 1,4,7-9")
     trials.add_argument("--out", default="runs/trials")
     trials.set_defaults(func=cmd_trials)
+
+    exp = sub.add_parser("experiment", help="run exp1|exp2|exp3 (DESIGN §8) into a results folder")
+    exp.add_argument("experiment", choices=["exp1", "exp2", "exp3"])
+    exp.add_argument("--trials", type=int, default=50, help="trials per row (default 50)")
+    exp.add_argument("--seed-base", type=int, default=1, help="trial i flies seed S+i")
+    exp.add_argument("--methods", help=f"comma-separated, default all of: {', '.join(METHODS[1:])}")
+    exp.add_argument("--worlds", help=f"comma-separated (exp2), default all of: {', '.join(WORLDS)}")
+    exp.add_argument("--latency-model", default=None,
+                     help="measured (default), fixed:<ms> or normal:<mean_ms>,<sd_ms>: replays other hardware")
+    exp.add_argument("--specs", choices=["pipeline", "oracle"], default="pipeline",
+                     help="semantic methods: real perception (default) or specs given from ground truth")
+    exp.add_argument("--gguf", action="append", default=[], help="exp3: another GGUF model to compare (repeat)")
+    exp.add_argument("--jobs", type=int, default=1, help="episodes in parallel, each its own stack and bus port")
+    exp.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
+    exp.add_argument("--resume", action="store_true", help="skip the trials already in OUT/trials.csv")
+    exp.add_argument("--out", required=True, help="results folder")
+    exp.set_defaults(func=cmd_experiment)
 
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],

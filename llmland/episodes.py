@@ -12,8 +12,6 @@ from llmland_schemas.bus import Bus
 
 log = logging.getLogger(__name__)
 
-#: Methods and the service that flies them (the rest of the stack is added per method).
-PILOT_FOR_METHOD = {"reference": "pilot", "baseline": "planner", "llm": "planner", "llm-land": "planner"}
 
 
 def new_episode_id(world: str, seed: int, method: str) -> str:

@@ -1,13 +1,14 @@
 """Specs given directly from the simulator's ground truth (no perception).
 
-For planner tests and ablations: every obstacle in ``sim/truth`` gets the spec of its class
-(a built-in table of the paper's defaults, overridden by the mission's ``given_specs``),
-published on ``reasoner/spec`` with ``source="given"``, exactly where the reasoner would
-publish. Each message claims a fixed ``latency_ms`` (default 50 ms, a fast reasoner): the
-planner applies it at ``stamp + latency``, which in lockstep is later than it can arrive
-over the bus, so a seeded episode is reproducible (with zero latency, whether a spec made
-the same tick would depend on the bus's timing). The planner still sees geometry only from depth; it attaches
-these specs to its tracks by position, as it does the reasoner's.
+For planner tests and ablations: it answers each camera frame sent for perception (the
+header's ``perceive``), where the VLE → reasoner pipeline would: every obstacle in the latest
+``sim/truth`` gets the spec of its class (a built-in table of the paper's defaults, overridden
+by the mission's ``given_specs``), published on ``reasoner/spec`` with ``source="given"``,
+stamped with the frame's stamp and ``frame_seq``. It claims ``latency_ms`` (default 50 ms, a
+fast reasoner); in lockstep the sim's latency model decides when it takes effect (the CLI
+uses ``fixed:50`` for oracle specs, so a seeded episode is reproducible). The planner still
+sees geometry only from depth; it attaches these specs to its tracks by position, as it does
+the reasoner's.
 """
 
 from __future__ import annotations
@@ -16,6 +17,11 @@ import logging
 import threading
 
 from llmland_schemas import (
+    PERSON_BUFFER_M,
+    PERSON_Z_MIN_M,
+    VEHICLE_BUFFER_M,
+    VEHICLE_Z_MIN_M,
+    CameraFrameHeader,
     GroundTruth,
     MissionGoal,
     ObjectSpec,
@@ -25,6 +31,7 @@ from llmland_schemas import (
     key,
 )
 from llmland_schemas.bus import Bus
+from llmland_schemas.frames import peek_header
 
 log = logging.getLogger(__name__)
 
@@ -36,8 +43,8 @@ def _spec(label: str, dynamic: bool, z_min: float, buffer_m: float) -> SafetySpe
 
 #: Paper defaults: pedestrians 3 m, vehicles 5 m; static things a small buffer.
 DEFAULT_SPECS: dict[str, SafetySpec] = {
-    "person": _spec("person", True, 3.0, 3.0),
-    "vehicle": _spec("vehicle", True, 3.0, 5.0),
+    "person": _spec("person", True, PERSON_Z_MIN_M, PERSON_BUFFER_M),
+    "vehicle": _spec("vehicle", True, VEHICLE_Z_MIN_M, VEHICLE_BUFFER_M),
     "building": _spec("building", False, 0.0, 1.0),
     "shed": _spec("shed", False, 0.0, 1.0),
     "tree": _spec("tree", False, 0.0, 1.0),
@@ -57,8 +64,10 @@ class OracleSpecPublisher:
         self._table: dict[str, dict[str, SafetySpec]] = {}
         self.published = 0
         self._spec_key = key(drone_id, Topic.SPEC)
+        self._truth: dict[str, GroundTruth] = {}
         bus.subscribe(key(drone_id, Topic.MISSION), MissionGoal, self._on_mission)
         bus.subscribe(key(drone_id, Topic.TRUTH), GroundTruth, self._on_truth)
+        bus.subscribe_parsed(key(drone_id, Topic.CAMERA), peek_header, self._on_frame)
 
     def _on_mission(self, _k: str, m: MissionGoal) -> None:
         table = dict(DEFAULT_SPECS)
@@ -68,8 +77,16 @@ class OracleSpecPublisher:
 
     def _on_truth(self, _k: str, truth: GroundTruth) -> None:
         with self._lock:
-            table = self._table.get(truth.episode_id)
-        if table is None:
+            if truth.episode_id in self._table:
+                self._truth = {truth.episode_id: truth}
+
+    def _on_frame(self, _k: str, header: CameraFrameHeader) -> None:
+        if not header.perceive:
+            return
+        with self._lock:
+            table = self._table.get(header.episode_id)
+            truth = self._truth.get(header.episode_id)
+        if table is None or truth is None:
             return
         objects = [
             ObjectSpec(obj_id=o.obj_id, centroid_m=o.position_m, size_m=o.size_m, spec=table[o.cls])
@@ -77,7 +94,7 @@ class OracleSpecPublisher:
             if o.cls in table
         ]
         msg = SafetySpecMessage(
-            drone_id=self.drone_id, stamp=truth.stamp, seq=truth.seq, frame_seq=truth.seq,
+            drone_id=self.drone_id, stamp=header.stamp, seq=header.seq, frame_seq=header.seq,
             scene=_spec("scene", any(o.spec.is_dynamic for o in objects), 0.0, 0.0),
             objects=objects, latency_ms=self.latency_ms, episode_id=truth.episode_id,
         )

@@ -9,6 +9,7 @@ buffers). Publishes ``planner/command`` (echoing each state's ``seq``) and
 from __future__ import annotations
 
 import logging
+import queue
 import threading
 
 from llmland_schemas import (
@@ -31,8 +32,18 @@ from .settings import PlannerSettings
 log = logging.getLogger("llmland.planner")
 
 
+#: longest wait (s, wall) for the frame or spec a lockstep state says has been published
+INPUT_WAIT_S = 1.0
+
+
 class PlannerService:
-    """Bus wiring around :class:`Planner`; one episode at a time."""
+    """Bus wiring around :class:`Planner`; one episode at a time.
+
+    States are handled on a worker thread, never on Zenoh's: in lockstep the worker first
+    waits (bounded by :data:`INPUT_WAIT_S`) until the camera frame and the specs that the state
+    says were published have been received, so what the planner knows at a tick does not
+    depend on bus timing and a seeded episode is reproducible.
+    """
 
     def __init__(self, settings: PlannerSettings, bus: Bus) -> None:
         self.settings = settings
@@ -40,12 +51,19 @@ class PlannerService:
         self.planner = Planner(settings)
         self.episode_id: str | None = None
         self._tick_lock = threading.Lock()
+        self._inputs = threading.Condition()
+        self._frame_seq = -1  # newest frame of this episode handed to the planner
+        self._spec_stamp = -1.0  # newest spec stamp of this episode received
+        self._states: queue.Queue[VehicleState | None] = queue.Queue()
+        self.late_inputs = 0
         d = settings.drone_id
         self.cmd_key, self.plan_key = key(d, Topic.COMMAND), key(d, Topic.PLAN)
         bus.subscribe(key(d, Topic.MISSION), MissionGoal, self._on_mission)
-        bus.subscribe(key(d, Topic.STATE), VehicleState, self._on_state)
+        bus.subscribe(key(d, Topic.STATE), VehicleState, lambda _k, st: self._states.put(st))
         bus.subscribe_parsed(key(d, Topic.CAMERA), decode_frame, self._on_frame)
         bus.subscribe(key(d, Topic.SPEC), SafetySpecMessage, self._on_spec)
+        self._worker = threading.Thread(target=self._run, name="planner-tick", daemon=True)
+        self._worker.start()
         bus.announce(alive(d, "planner"))
 
     def _on_mission(self, _k: str, m: MissionGoal) -> None:
@@ -53,19 +71,48 @@ class PlannerService:
             return  # only the sim's resolved mission starts an episode here
         with self._tick_lock:
             self.planner.start(m)
-            self.episode_id = m.episode_id
+            with self._inputs:
+                self.episode_id = m.episode_id
+                self._frame_seq, self._spec_stamp = -1, -1.0
 
     def _on_frame(self, _k: str, frame: CameraFrame) -> None:
         if frame.header.episode_id == self.episode_id:
             self.planner.on_frame(frame)
+            with self._inputs:
+                self._frame_seq = max(self._frame_seq, frame.header.seq)
+                self._inputs.notify_all()
 
     def _on_spec(self, _k: str, msg: SafetySpecMessage) -> None:
         if msg.episode_id in ("", self.episode_id):
             self.planner.on_spec(msg)
+            with self._inputs:
+                self._spec_stamp = max(self._spec_stamp, msg.stamp)
+                self._inputs.notify_all()
 
-    def _on_state(self, _k: str, st: VehicleState) -> None:
+    def _wait_inputs(self, st: VehicleState) -> None:
+        """Lockstep: wait until the frame and specs this state refers to are in."""
+        def ready() -> bool:
+            frame_ok = st.camera_seq is None or self._frame_seq >= st.camera_seq
+            spec_ok = st.specs_released_upto_s is None or self._spec_stamp >= st.specs_released_upto_s - 1e-9
+            return frame_ok and spec_ok
+
+        with self._inputs:
+            if not self._inputs.wait_for(ready, timeout=INPUT_WAIT_S):
+                self.late_inputs += 1
+                log.warning("state %d: frame %s / specs up to %s not received within %.1f s (%d so far)",
+                            st.seq, st.camera_seq, st.specs_released_upto_s, INPUT_WAIT_S, self.late_inputs)
+
+    def _run(self) -> None:
+        while (st := self._states.get()) is not None:
+            try:
+                self._handle_state(st)
+            except Exception:  # a planner bug must not stop the service: the sim's failsafe holds
+                log.exception("planner tick failed")
+
+    def _handle_state(self, st: VehicleState) -> None:
         if st.episode_id != self.episode_id:
             return
+        self._wait_inputs(st)
         with self._tick_lock:
             out = self.planner.tick(st)
         cmd = ControlCommand(
@@ -74,9 +121,13 @@ class PlannerService:
             mode=out.mode, source="planner",
             solve_ms=out.mpc.solve_ms if out.mpc else None, tick_ms=out.tick_ms,
         )
-        self.bus.publish(self.cmd_key, cmd)
+        self.bus.publish(self.cmd_key, cmd, express=True)
         if out.snapshot is not None:
             self.bus.publish(self.plan_key, out.snapshot)
+
+    def close(self) -> None:
+        self._states.put(None)
+        self._worker.join(timeout=5.0)
 
 
 def main() -> None:
@@ -84,9 +135,10 @@ def main() -> None:
     settings = PlannerSettings()
     stop = shutdown_event()
     with Bus() as bus:
-        PlannerService(settings, bus)
+        service = PlannerService(settings, bus)
         log.info("planner ready (drone %s)", settings.drone_id)
         stop.wait()
+        service.close()
 
 
 if __name__ == "__main__":

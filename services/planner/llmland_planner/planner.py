@@ -141,6 +141,7 @@ class Planner:
         t = state.stamp
         pos, vel = np.asarray(state.position_m), np.asarray(state.velocity_mps)
         with self._lock:
+            self.world.release_specs(t, state.specs_released_upto_s, lockstep=self._lockstep)
             regions = self.world.regions(t)
         phase, goal = self.landing.update(pos, vel, regions, t)
         if phase in (Phase.HOLD, Phase.DESCEND):

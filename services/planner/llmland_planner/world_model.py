@@ -22,7 +22,7 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from llmland_schemas import SafetySpec, SafetySpecMessage
+from llmland_schemas import PERSON_BUFFER_M, PERSON_Z_MIN_M, SafetySpec, SafetySpecMessage
 from llmland_schemas.depth import blobs_from_frame
 from llmland_schemas.frames import CameraFrame
 
@@ -39,6 +39,8 @@ class PendingSpec:
     """A spec waiting for its sim-time release."""
 
     apply_at_s: float
+    #: the source frame's stamp (s): in lockstep the sim says up to which stamp specs apply
+    stamp_s: float
     position_m: FloatArray
     spec: SafetySpec
     #: horizontal radius (m) of the object: every track within it takes the spec
@@ -82,6 +84,11 @@ class WorldModel:
     def semantic(self) -> bool:
         return self.method in ("llm", "llm-land")
 
+    @property
+    def blind_caution(self) -> bool:
+        """``conservative``: geometry only, every obstacle treated as a person."""
+        return self.method == "conservative"
+
     # ------------------------------------------------------------------ inputs
     def on_frame(self, frame: CameraFrame) -> None:
         if frame.depth_m is None:
@@ -97,15 +104,26 @@ class WorldModel:
         release = msg.stamp + msg.latency_ms / 1e3
         for obj in msg.objects:
             radius = 0.5 * max(obj.size_m[0], obj.size_m[1])
-            self.pending.append(PendingSpec(release, np.asarray(obj.centroid_m, dtype=float), obj.spec, radius))
+            self.pending.append(PendingSpec(release, msg.stamp, np.asarray(obj.centroid_m, dtype=float), obj.spec,
+                                            radius))
         self.spec_latencies_ms.append(msg.latency_ms)
 
-    def release_specs(self, t_s: float) -> None:
-        """Attach every spec whose release time has come to the track at its position."""
-        due = [s for s in self.pending if s.apply_at_s <= t_s]
+    def release_specs(self, t_s: float, released_upto_s: float | None = None, *, lockstep: bool = False) -> None:
+        """Attach every spec whose time has come to the tracks at its position.
+
+        Lockstep: the sim owns the latency model and says (``released_upto_s``) up to which
+        frame stamp specs are in effect; realtime: at ``frame stamp + reported latency``.
+        """
+        if lockstep:
+            def is_due(s: PendingSpec) -> bool:
+                return released_upto_s is not None and s.stamp_s <= released_upto_s + 1e-9
+        else:
+            def is_due(s: PendingSpec) -> bool:
+                return s.apply_at_s <= t_s
+        due = [s for s in self.pending if is_due(s)]
         if not due:
             return
-        self.pending = [s for s in self.pending if s.apply_at_s > t_s]
+        self.pending = [s for s in self.pending if not is_due(s)]
         # One object may be several blobs (a tree's trunk and crown): every track within its
         # footprint takes its spec. One blob may be several objects (a person walking past a
         # rock): the track takes the most careful spec, never the last one in.
@@ -128,8 +146,10 @@ class WorldModel:
         return spec  # type: ignore[no-any-return]
 
     def regions(self, t_s: float) -> list[UnsafeRegion]:
-        """Unsafe regions at sim time ``t_s`` (dynamic ones swept over the horizon)."""
-        self.release_specs(t_s)
+        """Unsafe regions at sim time ``t_s`` (dynamic ones swept over the horizon).
+
+        Reads only: release due specs first with :meth:`release_specs`.
+        """
         s = self.settings
         out: list[UnsafeRegion] = []
         for tr in self.tracker.tracks():
@@ -143,13 +163,15 @@ class WorldModel:
                 spec = self.spec_for(tr, t_s)
                 buffer_m, z_min, label = spec.buffer_m, spec.z_min, spec.label
                 dynamic = spec.is_dynamic or moving
+            elif self.blind_caution:
+                buffer_m, z_min, label, dynamic = PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True
             else:
                 buffer_m, z_min, label, dynamic = s.baseline_margin_m, 0.0, "obstacle", moving
             # Unseen for a while: extrapolate at most `predict_cap_s`, then let the
             # uncertainty grow at walking speed (a person out of view may be anywhere near).
             age = max(0.0, t_s - tr.last_seen_s)
             dt_pred = min(age, s.predict_cap_s)
-            if dynamic and self.semantic:  # knowing it is a person/vehicle that can walk in unseen
+            if dynamic and (self.semantic or self.blind_caution):  # a person/vehicle may walk in unseen
                 buffer_m += min(s.unseen_growth_mps * (age - dt_pred), s.unseen_growth_max_m)
             shift = np.array([vel[0], vel[1], 0.0]) * dt_pred
             lo, hi = tr.lo_m + shift, tr.hi_m + shift

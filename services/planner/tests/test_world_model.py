@@ -20,8 +20,13 @@ def _person_spec(latency_ms: float, stamp: float) -> SafetySpecMessage:
                                                  spec=spec)])
 
 
+def _regions(wm: WorldModel, t: float) -> list:
+    wm.release_specs(t)  # realtime release: stamp + reported latency
+    return wm.regions(t)
+
+
 def _half_width(wm: WorldModel, t: float) -> float:
-    regions = wm.regions(t)
+    regions = _regions(wm, t)
     assert len(regions) == 1
     return float((regions[0].hi[0] - regions[0].lo[0]) / 2)
 
@@ -56,7 +61,7 @@ def test_view_dependent_centroid_jitter_is_not_motion():
     wm = WorldModel(PlannerSettings(), "baseline")
     for k, dx in enumerate([0.0, 0.3, 0.0, 0.3, 0.0]):  # jitter of a static rock, 1.5 m/s apparent
         wm.tracker.update([_blob(5.0 + dx, 0.0, 0.4)], 0.2 * k)
-    regions = wm.regions(0.8)
+    regions = _regions(wm, 0.8)
     assert len(regions) == 1 and not regions[0].is_dynamic
 
 
@@ -64,7 +69,7 @@ def test_walking_obstacle_is_swept_along_its_motion():
     wm = WorldModel(PlannerSettings(), "baseline")
     for k in range(8):
         wm.tracker.update([_blob(5.0 + 0.3 * k, 0.0)], 0.2 * k)  # 1.5 m/s along +x
-    regions = wm.regions(1.4)
+    regions = _regions(wm, 1.4)
     assert len(regions) > 1 and all(r.is_dynamic for r in regions)
     assert max(r.hi[0] for r in regions) > 7.1 + 2.0  # swept ahead over the horizon
 
@@ -78,10 +83,10 @@ def test_person_and_rock_on_one_track_keep_the_persons_spec():
     rock = SafetySpec(is_dynamic=False, z_min=0.0, buffer_m=0.5, label="rock", source="given")
     rock_obj = ObjectSpec(obj_id="r0", centroid_m=(5.3, 0.2, 0.2), size_m=(0.6, 0.6, 0.4), spec=rock)
     wm.on_spec(person.model_copy(update={"objects": [*person.objects, rock_obj]}))
-    regions = wm.regions(0.0)
+    regions = _regions(wm, 0.0)
     assert regions[0].label == "person" and regions[0].is_dynamic
     wm.on_spec(person.model_copy(update={"objects": [rock_obj, *person.objects], "stamp": 0.1}))
-    assert wm.regions(0.1)[0].label == "person"
+    assert _regions(wm, 0.1)[0].label == "person"
 
 
 def test_every_blob_of_one_tree_takes_its_spec():
@@ -94,4 +99,25 @@ def test_every_blob_of_one_tree_takes_its_spec():
     tree = SafetySpec(is_dynamic=False, z_min=0.0, buffer_m=1.0, label="tree", source="given")
     wm.on_spec(SafetySpecMessage(stamp=0.0, scene=tree, objects=[
         ObjectSpec(obj_id="tree_0", centroid_m=(-1.4, -6.3, 2.5), size_m=(3.2, 3.2, 5.1), spec=tree)]))
-    assert [r.label for r in wm.regions(0.0)] == ["tree", "tree"]
+    assert [r.label for r in _regions(wm, 0.0)] == ["tree", "tree"]
+
+
+def test_lockstep_releases_specs_when_the_sim_says_not_by_reported_latency():
+    """Lockstep (DESIGN §4): the sim owns the latency model; the planner applies a spec from
+    the tick whose state says specs up to its frame stamp are in effect."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.on_spec(_person_spec(latency_ms=10.0, stamp=0.2))
+    wm.release_specs(5.0, None, lockstep=True)  # reported latency long past: still not released
+    assert _half_width_now(wm, 0.3) > CONSERVATIVE_BUFFER_M
+    wm.release_specs(5.0, 0.1, lockstep=True)  # specs up to an older frame only
+    assert _half_width_now(wm, 0.3) > CONSERVATIVE_BUFFER_M
+    wm.release_specs(1.7, 0.2, lockstep=True)
+    assert 3.0 < _half_width_now(wm, 0.3) < 3.5
+    assert wm.pending == []
+
+
+def _half_width_now(wm: WorldModel, t: float) -> float:
+    regions = wm.regions(t)
+    assert len(regions) == 1
+    return float((regions[0].hi[0] - regions[0].lo[0]) / 2)

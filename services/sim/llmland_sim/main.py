@@ -14,11 +14,15 @@ clock and applies the newest command.
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
 from llmland_schemas import (
     ControlCommand,
     MissionGoal,
@@ -34,6 +38,7 @@ from llmland_schemas.frames import encode_frame
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .mailbox import CommandMailbox
+from .perception_clock import LatencyModel, PerceptionClock
 from .settings import SimSettings
 from .simulation import Simulation
 from .viz import SimRecorder
@@ -53,7 +58,10 @@ class SimService:
         self.commands = CommandMailbox()
         self.recorder: SimRecorder | None = None
         self.current: MissionGoal | None = None
+        self.clock: PerceptionClock | None = None
         self.spec_latencies_ms: list[float] = []
+        self.fallback_specs = 0
+        self.walls = WallTimes()
         d = settings.drone_id
         self.k = {t: key(d, t) for t in Topic}
         bus.subscribe(self.k[Topic.MISSION], MissionGoal, self._on_mission)
@@ -75,6 +83,10 @@ class SimService:
     def _on_spec(self, _key: str, msg: SafetySpecMessage) -> None:
         if self.current is not None and msg.episode_id == self.current.episode_id:
             self.spec_latencies_ms.append(msg.latency_ms)
+            self.fallback_specs += sum(o.spec.source == "fallback" for o in msg.objects)
+            clock = self.clock
+            if clock is not None:
+                clock.on_spec(msg.frame_seq, msg.latency_ms, self.sim.t_s)
         self._record("spec", msg)
 
     def _record(self, kind: str, msg: object) -> None:
@@ -98,10 +110,13 @@ class SimService:
             self.run_episode(mission)
 
     def run_episode(self, mission: MissionGoal) -> None:
+        """Fly one mission to its end; publishes its EpisodeResult."""
         s, sim, bus = self.settings, self.sim, self.bus
         self.commands.clear()
         self.spec_latencies_ms = []
+        self.fallback_specs = 0
         sim.reset(mission)
+        self.walls = WallTimes()
         assert sim.world is not None
         # Tell everyone the resolved mission (start and target filled from the world).
         mission = mission.model_copy(update={
@@ -109,64 +124,153 @@ class SimService:
             "target_m": tuple(float(x) for x in sim.world.target_m),
         })
         sim.mission = mission
+        lockstep = mission.clock == "lockstep"
+        self.clock = (PerceptionClock(LatencyModel.parse(mission.latency_model), mission.seed, s.perception_timeout_s)
+                      if lockstep and mission.perception != "none" else None)
         self.current = mission
         bus.publish(self.k[Topic.MISSION], mission)
         rrd = mission.rrd_path or s.rrd
         if rrd is not None or s.rerun_connect:
             self.recorder = SimRecorder(mission.episode_id, rrd=Path(rrd) if rrd else None,
                                         connect_url=s.rerun_connect)
-        cam_period = 1.0 / s.camera_hz if s.camera_hz > 0 else float("inf")
-        truth_period = 1.0 / s.truth_hz if s.truth_hz > 0 else float("inf")
-        next_cam, next_truth = 0.0, 0.0
+        due = Schedule(s.camera_hz, s.truth_hz)
         solve_ms: list[float] = []
-        lockstep = mission.clock == "lockstep"
         wall0 = time.perf_counter()
+        camera_seq: int | None = None
         while not sim.done and not self.stop.is_set():
-            if sim.t_s + 1e-9 >= next_truth:
-                truth = sim.truth()
-                bus.publish(self.k[Topic.TRUTH], truth)
-                if self.recorder:
-                    self.recorder.truth(truth)
-                next_truth += truth_period
-            if sim.t_s + 1e-9 >= next_cam:
-                frame = sim.render_frame()
-                bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m))
-                if self.recorder:
-                    self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
-                next_cam += cam_period
-            state = sim.vehicle_state()
-            bus.publish(self.k[Topic.STATE], state)
-            if self.recorder:
-                self.recorder.state(state)
-            if lockstep:
-                if mission.max_rtf is not None:
-                    time.sleep(max(0.0, wall0 + sim.t_s / mission.max_rtf - time.perf_counter()))
-                cmd = self.commands.wait_for(state.seq, s.lockstep_timeout_s)
-                if cmd is None:
-                    sim.deadline_misses += 1
-            else:
-                time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
-                cmd = self.commands.take_latest()
+            if due.truth(sim.t_s):
+                self._publish_truth()
+            if due.camera(sim.t_s):
+                with self.walls.time("camera"):
+                    camera_seq = self._publish_frame(mission)
+            self._publish_state(mission, camera_seq)
+            cmd = self._await_command(mission, wall0)
             if cmd is not None and cmd.tick_ms is not None and cmd.tick_ms > 1e3 / s.ctrl_hz:
                 sim.deadline_misses += 1  # the controller overran its control period
             if cmd is not None and cmd.solve_ms is not None:
                 solve_ms.append(cmd.solve_ms)
                 if self.recorder:
                     self.recorder.mpc_solve(sim.t_s, cmd.solve_ms)
-            sim.apply_command(cmd)
-            sim.step()
+            with self.walls.time("physics"):
+                sim.apply_command(cmd)
+                sim.step()
+        self._finish(mission, solve_ms)
+
+    def _publish_truth(self) -> None:
+        truth = self.sim.truth()
+        self.bus.publish(self.k[Topic.TRUTH], truth)
+        if self.recorder:
+            self.recorder.truth(truth)
+
+    def _publish_frame(self, mission: MissionGoal) -> int:
+        """Render and publish a camera frame; in lockstep, maybe as a perception request."""
+        sim, clock = self.sim, self.clock
+        if clock is not None:
+            perceive = clock.should_perceive(sim.t_s)
+        else:
+            perceive = mission.perception != "none"
+        frame = sim.render_frame(perceive=perceive)
+        if clock is not None and perceive:
+            clock.on_frame_sent(frame.header.seq, frame.header.stamp)
+        self.bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        if self.recorder:
+            self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
+        return frame.header.seq
+
+    def _publish_state(self, mission: MissionGoal, camera_seq: int | None) -> None:
+        """This tick's state; in lockstep only once perception allows it (DESIGN §4)."""
+        sim = self.sim
+        released = None
+        if self.clock is not None:
+            with self.walls.time("perception_wait"):
+                self.clock.wait_before(sim.t_s, self.stop)
+            released = self.clock.released_upto_s(sim.t_s)
+        lockstep = mission.clock == "lockstep"
+        state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None, specs_released_upto_s=released)
+        self.bus.publish(self.k[Topic.STATE], state, express=True)
+        if self.recorder:
+            self.recorder.state(state)
+
+    def _await_command(self, mission: MissionGoal, wall0: float) -> ControlCommand | None:
+        """The command for this tick (lockstep: wait for it; realtime: the newest, wall-paced)."""
+        s, sim = self.settings, self.sim
+        if mission.clock != "lockstep":
+            time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
+            return self.commands.take_latest()
+        with self.walls.time("planner_wait"):
+            cmd = self.commands.wait_for(sim.seq, s.lockstep_timeout_s)
+        if cmd is None:
+            sim.deadline_misses += 1
+        return cmd
+
+    def _finish(self, mission: MissionGoal, solve_ms: list[float]) -> None:
+        sim = self.sim
         result = sim.result(mpc_solve_ms=solve_ms)
-        if self.spec_latencies_ms:
-            result.spec_latency_ms_mean = float(sum(self.spec_latencies_ms) / len(self.spec_latencies_ms))
+        result.latency_model = mission.latency_model if mission.perception != "none" else ""
+        result.fallback_specs = self.fallback_specs
+        clock = self.clock
+        if clock is not None:
+            clock.finish(sim.t_s)
+            result.perception_requests = clock.requests
+            result.perception_lost = clock.lost
+            result.perception_degraded = clock.ever_degraded
+            result.perception_degraded_s = round(clock.degraded_s, 3)
+            if clock.effective_latency_ms:
+                result.spec_latency_ms_mean = float(np.mean(clock.effective_latency_ms))
+                result.spec_compute_ms_mean = float(np.mean(clock.compute_ms))
+        elif self.spec_latencies_ms:  # realtime: what the producers reported
+            result.spec_latency_ms_mean = float(np.mean(self.spec_latencies_ms))
+            result.spec_compute_ms_mean = result.spec_latency_ms_mean
         if self.recorder:
             self.recorder.close()
             result.rrd_path = str(self.recorder.path) if self.recorder.path else None
             self.recorder = None
-        bus.publish(self.k[Topic.RESULT], result)
-        log.info("episode %s: %s (success=%s, %.1f s sim in %.1f s wall, %d deadline misses)",
+        self.bus.publish(self.k[Topic.RESULT], result)
+        log.info("episode %s: %s (success=%s, %.1f s sim in %.1f s wall, %d deadline misses, %d perception requests)",
                  mission.episode_id, result.outcome, result.success, result.sim_time_s,
-                 result.wall_time_s, result.deadline_misses)
+                 result.wall_time_s, result.deadline_misses, result.perception_requests)
+        log.info("episode %s wall time by part (s): %s", mission.episode_id, self.walls.summary())
         self.current = None
+        self.clock = None
+
+
+class WallTimes:
+    """Wall time spent in each part of the episode loop (for the log: where does time go)."""
+
+    def __init__(self) -> None:
+        self.totals: dict[str, float] = {}
+
+    @contextmanager
+    def time(self, part: str) -> Iterator[None]:
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.totals[part] = self.totals.get(part, 0.0) + time.perf_counter() - t0
+
+    def summary(self) -> dict[str, float]:
+        return {k: round(v, 2) for k, v in sorted(self.totals.items())}
+
+
+class Schedule:
+    """Which periodic publications are due at a sim time (rates in Hz; 0 disables)."""
+
+    def __init__(self, camera_hz: float, truth_hz: float) -> None:
+        self._period = {"camera": 1.0 / camera_hz if camera_hz > 0 else math.inf,
+                        "truth": 1.0 / truth_hz if truth_hz > 0 else math.inf}
+        self._next = {"camera": 0.0, "truth": 0.0}
+
+    def _due(self, what: str, t_s: float) -> bool:
+        if t_s + 1e-9 < self._next[what]:
+            return False
+        self._next[what] += self._period[what]
+        return True
+
+    def camera(self, t_s: float) -> bool:
+        return self._due("camera", t_s)
+
+    def truth(self, t_s: float) -> bool:
+        return self._due("truth", t_s)
 
 
 def main() -> None:

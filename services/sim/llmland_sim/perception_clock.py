@@ -32,9 +32,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas.messages import LATENCY_MODEL_PATTERN
 
-#: ``measured``, ``fixed:<ms>`` or ``normal:<mean_ms>,<sd_ms>``
-LATENCY_MODEL_PATTERN = r"^(measured|fixed:\d+(\.\d+)?|normal:\d+(\.\d+)?,\d+(\.\d+)?)$"
 #: how long (s, wall) the sim sleeps at most between checks while it waits for perception
 POLL_S = 0.05
 

@@ -30,6 +30,9 @@ class SimSettings(BaseSettings):
     #: search worker on a loaded machine can take a few hundred ms; only a dead planner
     #: should run into it (overruns are still counted from the command's ``tick_ms``).
     lockstep_timeout_s: float = 1.0
+    #: Lockstep with perception: a frame's spec not received within this wall time (s) is
+    #: abandoned and perception counts as degraded (VLE or reasoner down) until one arrives
+    perception_timeout_s: float = 15.0
     #: Hold the last command this long (sim time) before the vehicle-side failsafe.
     command_hold_s: float = 0.2
     #: Record every episode to this .rrd (may contain ``{episode_id}``) ...

@@ -187,7 +187,8 @@ class Simulation:
         return centre - np.array([0.0, 0.0, obj.size_m[2] / 2.0])
 
     # ------------------------------------------------------------------ messages
-    def vehicle_state(self) -> VehicleState:
+    def vehicle_state(self, *, camera_seq: int | None = None, specs_released_upto_s: float | None = None
+                      ) -> VehicleState:
         assert self.quad is not None and self.mission is not None and self.world is not None
         st = self.quad.state()
         height = st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1])
@@ -203,6 +204,8 @@ class Simulation:
             on_ground=bool(height < TOUCHDOWN_HEIGHT_M),
             collided=bool(self.score and self.score.collisions),
             episode_id=self.mission.episode_id,
+            camera_seq=camera_seq,
+            specs_released_upto_s=specs_released_upto_s,
         )
 
     def camera_frame(self) -> bytes:
@@ -210,8 +213,8 @@ class Simulation:
         frame = self.render_frame()
         return encode_frame(frame.header, frame.rgb, frame.depth_m)
 
-    def render_frame(self) -> CameraFrame:
-        """Render the RGB-D camera: typed header + pixel arrays."""
+    def render_frame(self, *, perceive: bool = True) -> CameraFrame:
+        """Render the RGB-D camera: typed header + pixel arrays (``perceive``: see the header)."""
         assert self.quad is not None and self.camera is not None and self.mission is not None
         st = self.quad.state()
         r = self.camera.render(st.pos_m, st.quat_xyzw, with_seg=False)
@@ -226,6 +229,7 @@ class Simulation:
             T_world_camera=[float(x) for x in np.asarray(r.T_world_camera).reshape(-1)],
             vehicle_position_m=vec3(st.pos_m),
             episode_id=self.mission.episode_id,
+            perceive=perceive,
         )
         return CameraFrame(header=header, rgb=r.rgb, depth_m=r.depth_m.astype(np.float32))
 

@@ -21,6 +21,8 @@ from typing import Any
 import zenoh
 from llmland_schemas import VLE_CAPTION_QUERY, GroundTruth, Topic, alive, encode, key
 from llmland_schemas.bus import Bus
+from llmland_schemas.codec import MessageError
+from llmland_schemas.frames import peek_header
 
 from .captioner import Captioner, CaptionUnavailableError, make_captioner
 from .crops import ImageError, load_image
@@ -46,6 +48,7 @@ class VleService:
         self.processor = FrameProcessor(self.captioner, settings)
         self.worker: LatestFrameWorker[tuple[bytes, float]] = LatestFrameWorker(self._handle)
         self._queries = ThreadPoolExecutor(max_workers=1, thread_name_prefix="vle-query")
+        self.skipped = 0  # frames not meant for perception
         self.queries_ok = 0
         self.queries_failed = 0
         d = settings.drone_id
@@ -61,6 +64,12 @@ class VleService:
 
     # ------------------------------------------------------------------ frames
     def _on_frame(self, _key: str, payload: bytes) -> None:
+        try:
+            if not peek_header(payload).perceive:  # depth-only frame (lockstep pacing, DESIGN §4)
+                self.skipped += 1
+                return
+        except (MessageError, ValueError):
+            pass  # the processor counts and drops it with its reason
         self.worker.submit((payload, time.perf_counter()))
 
     def _handle(self, item: tuple[bytes, float]) -> None:
@@ -100,7 +109,7 @@ class VleService:
     # ------------------------------------------------------------------ lifecycle
     def stats(self) -> dict[str, Any]:
         return {
-            "frames": self.worker.stats(),
+            "frames": {**self.worker.stats(), "skipped": self.skipped},
             "pipeline": self.processor.stats(),
             "queries": {"ok": self.queries_ok, "failed": self.queries_failed},
         }

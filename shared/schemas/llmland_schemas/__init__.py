@@ -6,7 +6,11 @@ from .keys import DEFAULT_DRONE_ID, REASONER_SPEC_QUERY, VLE_CAPTION_QUERY, Topi
 from .messages import (
     CONSERVATIVE_BUFFER_M,
     CONSERVATIVE_Z_MIN_M,
+    PERSON_BUFFER_M,
+    PERSON_Z_MIN_M,
     SCHEMA_VERSION,
+    VEHICLE_BUFFER_M,
+    VEHICLE_Z_MIN_M,
     CameraFrameHeader,
     CameraIntrinsics,
     Caption,
@@ -33,6 +37,10 @@ from .messages import (
 __all__ = [
     "CONSERVATIVE_BUFFER_M",
     "CONSERVATIVE_Z_MIN_M",
+    "PERSON_BUFFER_M",
+    "PERSON_Z_MIN_M",
+    "VEHICLE_BUFFER_M",
+    "VEHICLE_Z_MIN_M",
     "DEFAULT_DRONE_ID",
     "REASONER_SPEC_QUERY",
     "SCHEMA_VERSION",

@@ -101,9 +101,10 @@ class Bus:
                 self._publishers[key] = pub
             return pub
 
-    def publish(self, key: str, msg: BaseModel) -> None:
-        """Publish a message as JSON on ``key``."""
-        self.publisher(key).put(encode(msg))
+    def publish(self, key: str, msg: BaseModel, *, express: bool = False) -> None:
+        """Publish a message as JSON on ``key`` (``express``: never batched, for control-loop
+        messages whose latency matters more than throughput)."""
+        self.publisher(key, express=express).put(encode(msg))
 
     def publish_bytes(self, key: str, payload: bytes, *, encoding: zenoh.Encoding | None = None) -> None:
         """Publish raw bytes (camera frames)."""

@@ -53,6 +53,19 @@ def encode_frame(header: CameraFrameHeader, rgb: np.ndarray, depth_m: np.ndarray
     return b"".join(parts)
 
 
+def peek_header(payload: bytes | bytearray | memoryview) -> CameraFrameHeader:
+    """Only the typed header of a frame (no pixel copy); :class:`MessageError` if malformed."""
+    buf = memoryview(payload)
+    if len(buf) < _PREFIX.size:
+        raise MessageError(f"frame of {len(buf)} bytes is shorter than its prefix")
+    magic, head_len = _PREFIX.unpack_from(buf, 0)
+    if magic != MAGIC:
+        raise MessageError(f"bad frame magic {bytes(magic)!r}")
+    if head_len > MAX_HEADER_BYTES or _PREFIX.size + head_len > len(buf):
+        raise MessageError(f"bad frame header length {head_len}")
+    return decode(CameraFrameHeader, buf[_PREFIX.size : _PREFIX.size + head_len])
+
+
 def decode_frame(payload: bytes | bytearray | memoryview) -> CameraFrame:
     """Unpack and check a frame; raise :class:`MessageError` on anything malformed."""
     buf = memoryview(bytes(payload))

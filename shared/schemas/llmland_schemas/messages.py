@@ -16,6 +16,12 @@ from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, NonNegativeInt
 
 SCHEMA_VERSION: Literal[1] = 1
 
+#: The paper's default keep-out buffers (LLM-Land abstract): pedestrians 3 m, vehicles 5 m,
+#: with the minimum altitude (m) to overfly them.
+PERSON_BUFFER_M = 3.0
+PERSON_Z_MIN_M = 3.0
+VEHICLE_BUFFER_M = 5.0
+VEHICLE_Z_MIN_M = 3.0
 #: The most conservative class a planner assumes for an obstacle it has no spec for.
 CONSERVATIVE_BUFFER_M = 5.0
 CONSERVATIVE_Z_MIN_M = 5.0
@@ -61,6 +67,13 @@ class VehicleState(Envelope):
     on_ground: bool = False
     collided: bool = False
     episode_id: str = ""
+    #: lockstep: ``seq`` of the newest camera frame published before this state; a consumer
+    #: that tracks frames (the planner) processes that frame before acting on this state
+    camera_seq: NonNegativeInt | None = None
+    #: lockstep: perception results (specs) of frames stamped at or before this time (s) take
+    #: effect from this tick on (DESIGN §4: the sim owns the clock and the latency model).
+    #: None: no spec yet in lockstep, or realtime (specs apply at ``stamp + latency``)
+    specs_released_upto_s: NonNegFloat | None = None
 
 
 class ControlCommand(Envelope):
@@ -108,6 +121,9 @@ class CameraFrameHeader(Envelope):
     T_world_camera: Annotated[list[FiniteFloat], Field(min_length=16, max_length=16)]
     vehicle_position_m: Vec3 | None = None
     episode_id: str = ""
+    #: False: this frame is for depth tracking only; perception (VLE → reasoner) skips it.
+    #: In lockstep the sim sends a frame for perception only when perception is free (§4).
+    perceive: bool = True
 
 
 # --------------------------------------------------------------------------- truth
@@ -249,8 +265,15 @@ class PlanSnapshot(Envelope):
 # --------------------------------------------------------------------------- episodes
 
 WorldName = Literal["open_field", "urban", "forest_edge"]
-MethodName = Literal["reference", "baseline", "llm", "llm-land"]
+#: reference: the sim's own position controller; baseline: geometry, one fixed margin;
+#: conservative: geometry, every obstacle treated as a person; llm: LLM-MPC (no retrieval);
+#: llm-land: RAG (the paper's method)
+MethodName = Literal["reference", "baseline", "conservative", "llm", "llm-land"]
 ClockMode = Literal["lockstep", "realtime"]
+#: where semantic specs come from: nowhere, the VLE → reasoner pipeline, or ground truth
+PerceptionSource = Literal["none", "pipeline", "oracle"]
+#: ``measured`` | ``fixed:<ms>`` | ``normal:<mean_ms>,<sd_ms>`` (DESIGN §4)
+LATENCY_MODEL_PATTERN = r"^(measured|fixed:\d+(\.\d+)?|normal:\d+(\.\d+)?,\d+(\.\d+)?)$"
 
 
 class GivenSpec(Strict):
@@ -274,9 +297,10 @@ class MissionGoal(Envelope):
     target_m: Vec3 | None = None
     n_pedestrians: NonNegativeInt | None = None
     given_specs: list[GivenSpec] = []
-    #: Lockstep only: never run faster than this many times real time (None: as fast as it
-    #: can). 1.0 while perception runs, so captioning and reasoning cost their real latency.
-    max_rtf: Annotated[FiniteFloat, Field(gt=0)] | None = None
+    #: where specs come from; the sim paces perception requests for ``pipeline``/``oracle``
+    perception: PerceptionSource = "none"
+    #: lockstep: when a spec takes effect, ``frame stamp + latency`` (DESIGN §4)
+    latency_model: Annotated[str, Field(pattern=LATENCY_MODEL_PATTERN)] = "measured"
     #: Where the sim records this episode to Rerun (a path on the sim's host), if at all.
     rrd_path: str | None = None
 
@@ -302,7 +326,19 @@ class EpisodeResult(Envelope):
     control_ticks: NonNegativeInt = 0
     deadline_misses: NonNegativeInt = 0
     commands_missing: NonNegativeInt = 0
+    #: mean perception latency as applied (frame stamp → spec in effect, sim time), ms
     spec_latency_ms_mean: NonNegFloat | None = None
+    #: mean compute time the producers reported (VLE + reasoner wall time), ms
+    spec_compute_ms_mean: NonNegFloat | None = None
+    latency_model: str = ""
+    perception_requests: NonNegativeInt = 0
+    #: requests never answered within the sim's perception timeout
+    perception_lost: NonNegativeInt = 0
+    #: perception (VLE or reasoner) was down at some time, and for how long (sim s)
+    perception_degraded: bool = False
+    perception_degraded_s: NonNegFloat = 0.0
+    #: object specs that were the reasoner's conservative fallback (model error, worker down)
+    fallback_specs: NonNegativeInt = 0
     mpc_solve_ms_p50: NonNegFloat | None = None
     mpc_solve_ms_p95: NonNegFloat | None = None
     rrd_path: str | None = None

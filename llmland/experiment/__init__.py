@@ -1,0 +1,59 @@
+"""``llmland experiment exp1|exp2|exp3``: the paper's experiments (DESIGN §8) as one command.
+
+:func:`run_experiment` builds the trials (:mod:`.plan`), flies them on parallel stacks
+(:mod:`.runner`, one CSV row per trial as it ends, resumable), then writes ``summary.json``
+and ``results.md`` (:mod:`.report`) and the PNG plots (:mod:`.plots`).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import shlex
+import sys
+from pathlib import Path
+from typing import Any
+
+from .plan import EXPERIMENTS, build_trials
+from .plots import write_plots
+from .report import summarize, write_report
+from .runner import ExperimentRunner, read_rows
+
+log = logging.getLogger(__name__)
+
+__all__ = ["EXPERIMENTS", "run_experiment"]
+
+
+def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
+                   methods: list[str] | None = None, worlds: list[str] | None = None,
+                   latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
+                   jobs: int = 1, timeout_s: float = 90.0, rrd: bool = False, resume: bool = False,
+                   log_level: str = "WARNING", machine: str = "") -> dict[str, Any]:
+    """Run (or finish, with ``resume``) an experiment into ``out``; returns ``summary.json``."""
+    todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
+                        latency_model=latency_model, specs=specs, ggufs=ggufs)
+    runner = ExperimentRunner(todo, out, jobs=jobs, timeout_s=timeout_s, rrd=rrd, resume=resume,
+                              log_level=log_level, label=experiment)
+    if runner.skipped:
+        log.info("resuming: %d of %d trials already in %s", runner.skipped, len(todo), runner.csv_path)
+    wall = runner.run()
+    keys = {t.key for t in todo}
+    rows = [r for r in read_rows(runner.csv_path)
+            if (r["world"], r["method"], r["variant"], int(r["seed"])) in keys]
+    default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")
+    summary = summarize(experiment, rows, default_lm)
+    meta_path = out / "meta.json"
+    previous = json.loads(meta_path.read_text()) if resume and meta_path.exists() else {}
+    meta = {
+        "command": shlex.join(["llmland", *sys.argv[1:]]),
+        "seeds": f"{seed_base}–{seed_base + trials - 1}",
+        "trials": len(rows),
+        "machine": machine,
+        "jobs": jobs,
+        "wall_time_s": round(float(previous.get("wall_time_s", 0.0)) + wall, 1),
+    }
+    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
+    write_report(out, summary, meta)
+    for png in write_plots(out, summary, rows):
+        log.info("plot %s", png)
+    return summary

@@ -1,0 +1,190 @@
+"""Fly an experiment's trials on ``jobs`` stacks side by side, one CSV row per trial as it ends.
+
+Each job owns one stack (its own processes and loopback bus port) and keeps it while its
+trials need the same services; a job that finds no trial for its stack starts the next one.
+Rows are appended to ``trials.csv`` as soon as a trial ends, so ``--resume`` skips what is
+done and a long experiment survives an interruption. A trial whose stack fails is retried
+once on a fresh stack, then recorded with outcome ``error``.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import threading
+import time
+from collections import Counter
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Any
+
+from llmland_schemas import EpisodeResult
+from tqdm import tqdm
+from tqdm.contrib.logging import logging_redirect_tqdm
+
+from ..stacks import RunningStack, StackConfig, make_mission, open_stack
+from .plan import Trial
+from .traces import TraceRecorder
+
+log = logging.getLogger(__name__)
+
+COLUMNS = [
+    "world", "method", "variant", "seed", "outcome", "success", "touchdown_error_m", "time_to_land_s",
+    "closest_person_m", "min_person_distance_m", "close_calls", "collisions", "spec_latency_ms_mean",
+    "latency_model", "perception_requests", "perception_degraded", "perception_degraded_s", "fallback_specs",
+    "sim_time_s", "spec_compute_ms_mean", "mpc_solve_ms_p50", "mpc_solve_ms_p95", "deadline_misses",
+    "peak_memory_mb", "wall_time_s", "episode_id",
+]
+#: columns that depend on the machine's speed and load, not on the episode (the rest must be
+#: identical when the same seeds are flown again with the same latency model)
+WALL_COLUMNS = {"spec_compute_ms_mean", "mpc_solve_ms_p50", "mpc_solve_ms_p95", "deadline_misses",
+                "peak_memory_mb", "wall_time_s", "episode_id"}
+#: a trial whose episode never ends is abandoned after this much wall time per sim second
+WALL_PER_SIM_S = 20.0
+
+
+def _fmt(v: float | None, digits: int = 3) -> str:
+    return "" if v is None else f"{v:.{digits}f}"
+
+
+def trial_row(trial: Trial, r: EpisodeResult, peak_memory_mb: float | None) -> dict[str, Any]:
+    """The CSV row of one finished trial."""
+    people = r.min_person_distance_m
+    return {
+        "world": trial.world, "method": trial.method, "variant": trial.variant, "seed": trial.seed,
+        "outcome": r.outcome, "success": int(r.success), "touchdown_error_m": _fmt(r.touchdown_error_m),
+        "time_to_land_s": _fmt(r.time_to_land_s, 2),
+        "closest_person_m": _fmt(min(people.values()) if people else None),
+        "min_person_distance_m": ";".join(f"{k}:{v:.3f}" for k, v in sorted(people.items())),
+        "close_calls": r.close_calls, "collisions": ";".join(r.collisions),
+        "spec_latency_ms_mean": _fmt(r.spec_latency_ms_mean, 1), "latency_model": r.latency_model,
+        "perception_requests": r.perception_requests, "perception_degraded": int(r.perception_degraded),
+        "perception_degraded_s": _fmt(r.perception_degraded_s, 2), "fallback_specs": r.fallback_specs,
+        "sim_time_s": _fmt(r.sim_time_s, 2), "spec_compute_ms_mean": _fmt(r.spec_compute_ms_mean, 1),
+        "mpc_solve_ms_p50": _fmt(r.mpc_solve_ms_p50), "mpc_solve_ms_p95": _fmt(r.mpc_solve_ms_p95),
+        "deadline_misses": r.deadline_misses, "peak_memory_mb": _fmt(peak_memory_mb, 1),
+        "wall_time_s": _fmt(r.wall_time_s, 2), "episode_id": r.episode_id,
+    }
+
+
+def error_row(trial: Trial, reason: str) -> dict[str, Any]:
+    row: dict[str, Any] = {c: "" for c in COLUMNS}
+    row.update({"world": trial.world, "method": trial.method, "variant": trial.variant, "seed": trial.seed,
+                "outcome": "error", "success": 0, "episode_id": reason[:200]})
+    return row
+
+
+def read_rows(path: Path) -> list[dict[str, str]]:
+    if not path.exists():
+        return []
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def row_key(row: dict[str, Any]) -> tuple[str, str, str, int]:
+    return (str(row["world"]), str(row["method"]), str(row["variant"]), int(row["seed"]))
+
+
+class ExperimentRunner:
+    """Runs ``trials`` into ``out/trials.csv`` with ``jobs`` parallel stacks."""
+
+    def __init__(self, trials: list[Trial], out: Path, *, jobs: int = 1, timeout_s: float = 90.0,
+                 rrd: bool = False, resume: bool = False, log_level: str = "WARNING", label: str = "") -> None:
+        self.out = out
+        self.csv_path = out / "trials.csv"
+        out.mkdir(parents=True, exist_ok=True)
+        done = {row_key(r) for r in read_rows(self.csv_path)} if resume else set()
+        if not resume and self.csv_path.exists():
+            self.csv_path.unlink()
+        self.todo = [t for t in trials if t.key not in done]
+        self.skipped = len(trials) - len(self.todo)
+        self.jobs = max(1, min(jobs, len(self.todo) or 1))
+        self.timeout_s = timeout_s
+        self.rrd = rrd
+        self.log_level = log_level
+        self.label = label
+        self._lock = threading.Lock()
+        self._tally: dict[str, Counter[str]] = {}
+        self._bar: tqdm | None = None
+
+    # ------------------------------------------------------------------ scheduling
+    def _take(self, current: StackConfig | None) -> Trial | None:
+        """The next trial, preferring one that the job's running stack can fly."""
+        with self._lock:
+            if not self.todo:
+                return None
+            for i, t in enumerate(self.todo):
+                if t.stack() == current:
+                    return self.todo.pop(i)
+            return self.todo.pop(0)
+
+    def _record(self, row: dict[str, Any]) -> None:
+        with self._lock:
+            new = not self.csv_path.exists()
+            with self.csv_path.open("a", newline="") as fh:
+                w = csv.DictWriter(fh, fieldnames=COLUMNS)
+                if new:
+                    w.writeheader()
+                w.writerow(row)
+            name = row["method"] + (f" [{row['variant']}]" if row["variant"] else "")
+            tally = self._tally.setdefault(name, Counter())
+            tally["n"] += 1
+            tally["ok"] += int(row["success"])
+            if self._bar is not None:
+                self._bar.set_postfix_str(" · ".join(f"{k} {c['ok']}/{c['n']}" for k, c in self._tally.items()))
+                self._bar.update(1)
+
+    # ------------------------------------------------------------------ flying
+    def _fly(self, running: RunningStack, tracer: TraceRecorder, trial: Trial) -> dict[str, Any]:
+        rrd = str((self.out / "rrd" / f"{trial.name}.rrd").resolve()) if self.rrd else None
+        mission = make_mission(trial.stack(), world=trial.world, seed=trial.seed, timeout_s=self.timeout_s,
+                               n_pedestrians=trial.n_pedestrians, latency_model=trial.latency_model, rrd=rrd)
+        tracer.start(mission.episode_id)
+        result = running.runner.run(mission, wall_timeout_s=60.0 + WALL_PER_SIM_S * self.timeout_s)
+        tracer.save(self.out / "traces" / f"{trial.name}.json")
+        peak = running.peak_rss_mb("reasoner") if trial.stack().perception == "pipeline" else None
+        log.info("%s: %s", trial.name, result.outcome)
+        return trial_row(trial, result, peak)
+
+    def _job(self, index: int) -> None:
+        current: StackConfig | None = None
+        resources = ExitStack()
+        running: RunningStack | None = None
+        tracer: TraceRecorder | None = None
+        try:
+            while (trial := self._take(current)) is not None:
+                for attempt in (1, 2):
+                    try:
+                        if running is None or trial.stack() != current:
+                            resources.close()
+                            current = trial.stack()
+                            running = resources.enter_context(open_stack(
+                                current, log_level=self.log_level, log_dir=self.out / "logs" / f"job{index}"))
+                            tracer = TraceRecorder(running.bus, running.runner.drone_id)
+                        assert running is not None and tracer is not None
+                        self._record(self._fly(running, tracer, trial))
+                        break
+                    except (TimeoutError, RuntimeError, OSError) as exc:
+                        log.error("%s failed on attempt %d: %s", trial.name, attempt, exc)
+                        resources.close()
+                        running, current = None, None
+                        if attempt == 2:
+                            self._record(error_row(trial, f"{type(exc).__name__}: {exc}"))
+        finally:
+            resources.close()
+
+    def run(self) -> float:
+        """Fly every trial still to do; returns the wall time (s)."""
+        t0 = time.perf_counter()
+        if not self.todo:
+            return 0.0
+        with logging_redirect_tqdm(), tqdm(total=len(self.todo), desc=self.label or "trials", unit="trial",
+                                           dynamic_ncols=True) as bar:
+            self._bar = bar
+            threads = [threading.Thread(target=self._job, args=(i,), name=f"job{i}") for i in range(self.jobs)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+            self._bar = None
+        return time.perf_counter() - t0

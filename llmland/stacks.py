@@ -1,0 +1,135 @@
+"""Which services fly a method, and one running stack of them on its own bus.
+
+A *stack* is one drone's service processes (sim + planner, plus VLE + reasoner when specs come
+from the real pipeline) connected to a hub session that this process opens on its own loopback
+port. Experiments run several stacks side by side (``--jobs``), one port each.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import psutil
+from llmland_schemas import MissionGoal
+from llmland_schemas.bus import Bus
+
+from .episodes import EpisodeRunner, new_episode_id
+from .launch import Stack, free_port, hub_bus
+from .oracle_specs import OracleSpecPublisher
+
+log = logging.getLogger(__name__)
+
+SpecSource = Literal["pipeline", "oracle", "none"]
+#: methods whose planner uses semantic specs
+SEMANTIC_METHODS = ("llm", "llm-land")
+#: the reasoner mode that serves each semantic method (DESIGN §5)
+REASONER_MODE = {"llm": "llm", "llm-land": "rag"}
+#: latency model for specs given from ground truth: a fast reasoner, reproducible
+ORACLE_LATENCY_MODEL = "fixed:50"
+
+
+@dataclass(frozen=True)
+class StackConfig:
+    """What a stack runs: the method, where its specs come from, and which LLM."""
+
+    method: str
+    specs: SpecSource = "pipeline"
+    llm_model_path: str | None = None
+
+    @property
+    def perception(self) -> SpecSource:
+        return self.specs if self.method in SEMANTIC_METHODS else "none"
+
+    def services(self) -> list[str]:
+        names = ["sim", "pilot" if self.method == "reference" else "planner"]
+        if self.perception == "pipeline":
+            names += ["vle", "reasoner"]
+        return names
+
+    def env(self) -> dict[str, str]:
+        env = {"LLMLAND_REASONER_HTTP_PORT": str(free_port())}
+        if self.method in REASONER_MODE:
+            env["LLMLAND_REASONER_MODE"] = REASONER_MODE[self.method]
+        if self.llm_model_path:
+            env["LLMLAND_REASONER_LLM_MODEL_PATH"] = self.llm_model_path
+        return env
+
+    def default_latency_model(self) -> str:
+        return ORACLE_LATENCY_MODEL if self.perception == "oracle" else "measured"
+
+
+def make_mission(cfg: StackConfig, *, world: str, seed: int, timeout_s: float, drone_id: str = "d0",
+                 clock: str = "lockstep", n_pedestrians: int | None = None, latency_model: str | None = None,
+                 rrd: str | None = None) -> MissionGoal:
+    """The MissionGoal for one episode of ``cfg``'s method."""
+    return MissionGoal(
+        drone_id=drone_id,
+        episode_id=new_episode_id(world, seed, cfg.method),
+        world=world,  # type: ignore[arg-type]
+        seed=seed,
+        method=cfg.method,  # type: ignore[arg-type]
+        clock=clock,  # type: ignore[arg-type]
+        timeout_s=timeout_s,
+        n_pedestrians=n_pedestrians,
+        rrd_path=rrd,
+        perception=cfg.perception,
+        latency_model=latency_model or cfg.default_latency_model(),
+    )
+
+
+@dataclass
+class RunningStack:
+    """A started stack: its processes, the hub bus and an episode runner on it."""
+
+    config: StackConfig
+    stack: Stack
+    bus: Bus
+    runner: EpisodeRunner
+
+    def peak_rss_mb(self, service: str) -> float | None:
+        """Peak resident memory (MB) of a service process and its children (e.g. the LLM worker)."""
+        proc = self.stack.procs.get(service)
+        if proc is None or proc.poll() is not None:
+            return None
+        total = 0.0
+        try:
+            root = psutil.Process(proc.pid)
+            for p in [root, *root.children(recursive=True)]:
+                total += _peak_rss_kb(p.pid) / 1024.0
+        except psutil.Error:
+            return None
+        return round(total, 1)
+
+    def kill(self, service: str) -> None:
+        """Kill one service (fault runs): SIGKILL to its process group."""
+        proc = self.stack.procs[service]
+        os.killpg(proc.pid, 9)
+        proc.wait(timeout=10)
+        log.warning("killed %s (pid %d) for a fault run", service, proc.pid)
+
+
+def _peak_rss_kb(pid: int) -> float:
+    """``VmHWM`` (peak resident set) of a process, from /proc (kB)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return float(line.split()[1])
+    return 0.0
+
+
+@contextmanager
+def open_stack(cfg: StackConfig, *, drone_id: str = "d0", port: int = 0, log_level: str = "WARNING",
+               log_dir: Path | None = None, start_timeout_s: float = 120.0) -> Iterator[RunningStack]:
+    """Start ``cfg``'s services on a fresh loopback hub; stop them all on exit."""
+    port = port or free_port()
+    with hub_bus(port) as bus, Stack(port, drone_id, env=cfg.env(), log_level=log_level, log_dir=log_dir) as stack:
+        stack.start(cfg.services())
+        if cfg.perception == "oracle":
+            OracleSpecPublisher(bus, drone_id)
+        stack.wait_alive(bus, timeout_s=start_timeout_s)
+        yield RunningStack(cfg, stack, bus, EpisodeRunner(bus, drone_id))
