@@ -50,6 +50,9 @@ def cmd_land(args: argparse.Namespace) -> int:
     rrd = str(Path(args.rrd).resolve()) if args.rrd else None
     cfg = _config(args)
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
+        for fault in args.kill:
+            service, _, at = fault.partition("@")
+            running.kill_at(service, float(at or 0.0))
         result = running.runner.run(_mission(args, cfg, args.seed, rrd))
     sys.stderr.write(summary_line(result) + "\n")
     sys.stderr.flush()
@@ -179,6 +182,8 @@ def build_parser() -> argparse.ArgumentParser:
     land.add_argument("--seed", type=int, default=1)
     land.add_argument("--rrd", help="write a Rerun recording of the episode to this file")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
+    land.add_argument("--kill", action="append", default=[], metavar="SERVICE@SIM_S",
+                      help="fault run: kill a service (vle, reasoner, ...) when the episode reaches SIM_S seconds")
     land.set_defaults(func=cmd_land)
 
     trials = sub.add_parser("trials", help="fly many seeds on one stack; CSV + summary")

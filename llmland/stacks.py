@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import os
+import signal
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -16,7 +18,7 @@ from pathlib import Path
 from typing import Literal
 
 import psutil
-from llmland_schemas import MissionGoal
+from llmland_schemas import MissionGoal, Topic, VehicleState, key
 from llmland_schemas.bus import Bus
 
 from .episodes import EpisodeRunner, new_episode_id
@@ -109,9 +111,23 @@ class RunningStack:
     def kill(self, service: str) -> None:
         """Kill one service (fault runs): SIGKILL to its process group."""
         proc = self.stack.procs[service]
-        os.killpg(proc.pid, 9)
-        proc.wait(timeout=10)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=10)
         log.warning("killed %s (pid %d) for a fault run", service, proc.pid)
+
+    def kill_at(self, service: str, sim_time_s: float) -> None:
+        """Fault run: kill ``service`` once the next episode reaches ``sim_time_s``."""
+        if service not in self.stack.procs:
+            raise ValueError(f"no {service} in this stack ({', '.join(self.stack.procs)})")
+        fired = threading.Event()
+
+        def on_state(_k: str, st: VehicleState) -> None:
+            if st.stamp >= sim_time_s and not fired.is_set():
+                fired.set()
+                threading.Thread(target=self.kill, args=(service,), daemon=True).start()
+
+        self.bus.subscribe(key(self.runner.drone_id, Topic.STATE), VehicleState, on_state)
 
 
 def _peak_rss_kb(pid: int) -> float:
@@ -124,10 +140,15 @@ def _peak_rss_kb(pid: int) -> float:
 
 @contextmanager
 def open_stack(cfg: StackConfig, *, drone_id: str = "d0", port: int = 0, log_level: str = "WARNING",
-               log_dir: Path | None = None, start_timeout_s: float = 120.0) -> Iterator[RunningStack]:
-    """Start ``cfg``'s services on a fresh loopback hub; stop them all on exit."""
+               log_dir: Path | None = None, start_timeout_s: float = 120.0,
+               env: dict[str, str] | None = None) -> Iterator[RunningStack]:
+    """Start ``cfg``'s services on a fresh loopback hub; stop them all on exit.
+
+    ``env``: extra environment for the services (settings such as ``LLMLAND_SIM_...``).
+    """
     port = port or free_port()
-    with hub_bus(port) as bus, Stack(port, drone_id, env=cfg.env(), log_level=log_level, log_dir=log_dir) as stack:
+    with hub_bus(port) as bus, Stack(port, drone_id, env={**cfg.env(), **(env or {})}, log_level=log_level,
+                                     log_dir=log_dir) as stack:
         stack.start(cfg.services())
         if cfg.perception == "oracle":
             OracleSpecPublisher(bus, drone_id)

@@ -17,7 +17,8 @@ def index_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def settings(index_dir: Path) -> ReasonerSettings:
-    return ReasonerSettings(index_dir=index_dir, n_threads=1, timeout_s=30.0)
+    # inline: the model in the test process (the worker process has its own tests, test_llm_worker.py)
+    return ReasonerSettings(index_dir=index_dir, n_threads=1, timeout_s=30.0, llm_isolation="inline")
 
 
 @pytest.fixture(scope="session")

@@ -140,6 +140,9 @@ class SimService:
         while not sim.done and not self.stop.is_set():
             if due.truth(sim.t_s):
                 self._publish_truth()
+            if self.clock is not None:  # latency-faithful perception (DESIGN §4)
+                with self.walls.time("perception_wait"):
+                    self.clock.wait_before(sim.t_s, self.stop)
             if due.camera(sim.t_s):
                 with self.walls.time("camera"):
                     camera_seq = self._publish_frame(mission)
@@ -178,13 +181,9 @@ class SimService:
         return frame.header.seq
 
     def _publish_state(self, mission: MissionGoal, camera_seq: int | None) -> None:
-        """This tick's state; in lockstep only once perception allows it (DESIGN §4)."""
+        """This tick's state, with the specs in effect at this tick (lockstep)."""
         sim = self.sim
-        released = None
-        if self.clock is not None:
-            with self.walls.time("perception_wait"):
-                self.clock.wait_before(sim.t_s, self.stop)
-            released = self.clock.released_upto_s(sim.t_s)
+        released = self.clock.released_upto_s(sim.t_s) if self.clock is not None else None
         lockstep = mission.clock == "lockstep"
         state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None, specs_released_upto_s=released)
         self.bus.publish(self.k[Topic.STATE], state, express=True)

@@ -36,6 +36,8 @@ from llmland_schemas.messages import LATENCY_MODEL_PATTERN
 
 #: how long (s, wall) the sim sleeps at most between checks while it waits for perception
 POLL_S = 0.05
+#: sim times closer than this (s) are the same instant (sums of physics steps drift)
+EPS_S = 1e-9
 
 
 @dataclass(frozen=True)
@@ -102,10 +104,18 @@ class PerceptionClock:
 
     # ------------------------------------------------------------------ frames
     def should_perceive(self, t_s: float) -> bool:
-        """Send the frame at ``t_s`` for perception? Only when the server is free."""
+        """Send the frame at ``t_s`` for perception? Only when the server is free.
+
+        Call :meth:`wait_before` for ``t_s`` first: with a modelled latency the server is free
+        from the previous request's release on, and ``wait_before`` has then made sure its spec
+        arrived, so the answer never depends on bus timing.
+        """
         with self._cond:
-            busy = self._inflight is not None and not self._inflight.abandoned
-            return not busy and t_s >= self._last_release_s
+            req = self._inflight
+            if req is not None and not req.abandoned:
+                if req.release_s is None or t_s < req.release_s - EPS_S:
+                    return False  # measured and unanswered, or modelled and not yet released
+            return t_s >= self._last_release_s - EPS_S
 
     def on_frame_sent(self, frame_seq: int, stamp_s: float) -> None:
         with self._cond:
@@ -158,7 +168,7 @@ class PerceptionClock:
                     if t_s <= req.stamp_s + elapsed:
                         return
                     wait = max(1e-4, min(POLL_S, t_s - (req.stamp_s + elapsed)))
-                elif t_s < req.release_s:  # modelled latency: free running until the release
+                elif t_s < req.release_s - EPS_S:  # modelled latency: free running until the release
                     return
                 else:
                     wait = POLL_S
@@ -169,7 +179,7 @@ class PerceptionClock:
         with self._cond:
             # Requests are served one at a time, so releases come in order: advance a cursor.
             while (self._n_effective < len(self._released)
-                   and (self._released[self._n_effective].release_s or math.inf) <= t_s + 1e-9):
+                   and (self._released[self._n_effective].release_s or math.inf) <= t_s + EPS_S):
                 self._n_effective += 1
             return self._released[self._n_effective - 1].stamp_s if self._n_effective else None
 

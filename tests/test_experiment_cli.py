@@ -1,0 +1,53 @@
+"""`llmland experiment` end to end through real processes: the folder, reproducibility, --resume."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from llmland.experiment.runner import WALL_COLUMNS
+
+from .conftest import run_cli
+
+pytestmark = pytest.mark.integration
+
+#: two seeds, short episodes, the real pipeline with a modelled latency (reproducible)
+ARGS = ["experiment", "exp1", "--trials", "2", "--seed-base", "3", "--methods", "llm-land",
+        "--latency-model", "fixed:200", "--timeout", "20"]
+
+
+def _rows_without_wall_columns(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return [{k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(fh)]
+
+
+def test_two_trial_experiment_writes_its_folder_and_replays_identically(tmp_path: Path) -> None:
+    first, second = tmp_path / "first", tmp_path / "second"
+    proc = run_cli(*ARGS, "--out", str(first), timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    summary = json.loads((first / "summary.json").read_text())
+    assert summary["experiment"] == "exp1" and summary["latency_model"] == "fixed:200"
+    (row,) = summary["rows"]
+    assert set(row) == {"world", "method", "n", "success_rate", "close_calls", "collisions", "timeouts",
+                        "time_to_land_s_median", "closest_person_m_p5", "spec_latency_ms_mean"}
+    assert row["n"] == 2 and row["world"] == "open_field" and row["method"] == "llm-land"
+    assert row["spec_latency_ms_mean"] == pytest.approx(200.0)
+    md = (first / "results.md").read_text()
+    assert "96.0 %" in md and "llm-land" in md and "seeds: 3–4" in md  # the paper's number beside ours
+    for png in ("success.png", "closest_person.png", "spec_latency.png", "trajectory_llm-land.png"):
+        assert (first / png).stat().st_size > 5_000, png
+    rows = _rows_without_wall_columns(first / "trials.csv")
+    assert [r["seed"] for r in rows] == ["3", "4"]
+    assert all(int(r["perception_requests"]) > 10 and r["latency_model"] == "fixed:200" for r in rows)
+
+    proc = run_cli(*ARGS, "--out", str(second), timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert _rows_without_wall_columns(second / "trials.csv") == rows  # same seeds + latency model
+
+    before = (first / "trials.csv").read_text()
+    proc = run_cli(*ARGS, "--out", str(first), "--resume", timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert (first / "trials.csv").read_text() == before  # nothing flown again
