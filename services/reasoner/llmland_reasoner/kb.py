@@ -70,10 +70,10 @@ def category_problems(entry: KbEntry) -> list[str]:
     if entry.category != "person" and entry.is_human:
         problems.append(f"only category person may be human (category is {entry.category})")
     if entry.category in LIVING and not entry.is_dynamic:
-        problems.append(f"a {entry.category} moves by itself: is_dynamic must be true")
+        problems.append(f"category {entry.category} moves by itself: is_dynamic must be true")
     floor = MIN_BUFFER_M.get(entry.category)
     if floor is not None and entry.buffer_m < floor:
-        problems.append(f"a {entry.category} needs buffer_m >= {floor} m (got {entry.buffer_m} m)")
+        problems.append(f"category {entry.category} needs buffer_m >= {floor} m (got {entry.buffer_m} m)")
     return problems
 
 
