@@ -44,7 +44,8 @@ CAREFUL_RANK: dict[str, int] = {
 UNCOUNTED_SENSES = 4
 #: Hypernym anchors, checked in this order on a sense's hypernym closure (the first hit classes it).
 ANCHORS: tuple[tuple[str, NounClass], ...] = (
-    ("representation.n.02", "lookalike"),  # statue, picture, photograph, drawing, model, figurine
+    ("representation.n.02", "lookalike"),  # picture, photograph, drawing, model, figurine
+    ("art.n.01", "lookalike"),  # statue, sculpture, painting
     ("person.n.01", "person"),
     ("gathering.n.01", "person"),  # crowd, audience, congregation
     ("family.n.01", "person"),
@@ -142,8 +143,28 @@ class WordNet:
             return any(self._wn.morphy(word, pos) for pos in ("n", "v", "a", "r"))
 
     def is_adjective(self, word: str) -> bool:
+        """Whether the word is used as an adjective more than as a noun (SemCor counts; an
+        adjective with no counts either way): "green", "lush", "young" yes; "beetle" no."""
         with self._lock:
-            return bool(self._wn.synsets(word, "a") or self._wn.synsets(word, "s"))
+            adj = [s for pos in ("a", "s") for s in self._wn.synsets(word, pos)]
+            if not adj:
+                return False
+            nouns = self._wn.synsets(word, "n")
+            n_count = sum(lemma.count() for s in nouns for lemma in s.lemmas() if lemma.name().lower() == word)
+            a_count = sum(lemma.count() for s in adj for lemma in s.lemmas() if lemma.name().lower() == word)
+        return a_count >= n_count
+
+    def mostly_verb(self, word: str) -> bool:
+        """Whether the word is used as a verb more than as a noun (SemCor counts): "pass",
+        "surfs", "stands" yes; "dog", "train" no."""
+        with self._lock:
+            verb = self._wn.morphy(word, "v")
+            if not verb:
+                return False
+            noun = self._wn.morphy(word, "n") or word
+            v_count = sum(lm.count() for s in self._wn.synsets(verb, "v") for lm in s.lemmas() if lm.name() == verb)
+            n_count = sum(lm.count() for s in self._wn.synsets(noun, "n") for lm in s.lemmas() if lm.name() == noun)
+        return v_count > n_count
 
     def is_verb(self, word: str) -> bool:
         with self._lock:

@@ -11,8 +11,9 @@ A mention is ``present`` unless the caption says, unambiguously, that it is not 
 - ``depicted``: the complement of a depiction ("a statue *of a woman*", "a painting of a
   horse") or the modifier of one ("a dog statue"). "A photo/picture/image/view of ..." is the
   camera's own picture, so what follows it is present.
-Nouns that only qualify the next noun ("aerial view", "tennis court", "bus stop" as a WordNet
-compound) are not mentions, except people, animals and vehicles, which are kept (careful).
+Nouns that only qualify the next noun ("aerial view", "tennis court", "cricket player", "bus
+stop" as a WordNet compound) are not mentions, except KB names of people, animals and vehicles
+("dog park", "police horse"), which are kept (careful).
 """
 
 from __future__ import annotations
@@ -48,6 +49,13 @@ FUNCTION_WORDS = frozenset(
     "where when why how all both each every any few many much more most other such only own same so just "
     "away back together front top side middle left right far close".split()
 )
+#: Nouns that count what follows "of" ("a couple of playgrounds", "lots of cars"): not mentions.
+QUANTIFIERS = frozenset(
+    "couple pair lot lots number bunch dozen dozens handful set series row rows line lines kind kinds sort "
+    "sorts variety plenty piece pieces part parts rest majority".split()
+)
+#: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
+PARKED = frozenset({"parked", "docked", "moored"})
 #: Nouns for the image itself when they open the caption: "a photo of a man running" shows a
 #: man. After another noun ("a billboard with a picture of a car") they are depictions.
 IMAGE_NOUNS = frozenset(
@@ -125,17 +133,33 @@ class MentionFinder:
             return False
         if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
             return False  # "walking", "parked": verbs and participles, unless "a crossing"
+        if self._verb_here(words, i):
+            return False  # "the river passes", "a man surfs": verbs, unless "a pass"
         if self.wordnet.is_adjective(word) and (i == 0 or words[i - 1] not in DETERMINERS
                                                 or (i + 1 < len(words) and words[i + 1] not in FUNCTION_WORDS)):
             return False  # "lush plants", "green field", "a young man": adjectives, not nouns
         return self.wordnet.noun_class(self.wordnet.lemma(word)) is not None
+
+    def _verb_here(self, words: Sequence[str], i: int) -> bool:
+        """A word used mostly as a verb, right after a noun: "a player swings", "a man surfs"."""
+        if i == 0 or not self.wordnet.mostly_verb(words[i]):
+            return False
+        prev = words[i - 1]
+        if prev in FUNCTION_WORDS or prev in DETERMINERS or not prev.isalpha():
+            return False
+        return self._kb_match(words, i - 1) is not None or (
+            self.wordnet.is_noun(self.wordnet.lemma(prev)) and not self.wordnet.is_adjective(prev))
 
     def _unit(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
         """The lexical unit starting at ``i``: (length, class, source, kb id), or None."""
         if words[i] in IMAGE_NOUNS and self._opens_caption(words, i):
             return None
         kb = self._kb_match(words, i)
+        if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
+            return None
         compound = self._compound(words, i)
+        if kb is not None and kb[0] == 1 and kb[1].category not in _LIVING_OR_VEHICLE and self._verb_here(words, i):
+            kb = None  # "a player swings": a verb, though "swing" is a KB name
         if kb is not None and (compound is None or compound[0] <= kb[0]):
             n, entry = kb
             return n, entry.category, "kb", entry.id
@@ -143,6 +167,8 @@ class MentionFinder:
             return compound[0], compound[1], "wordnet", None
         if self._is_wn_noun(words, i):
             cls = self.wordnet.noun_class(self.wordnet.lemma(words[i])) or "abstract"
+            if i + 1 < len(words) and words[i + 1] in PARKED:
+                cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
         return None
 
@@ -197,8 +223,9 @@ class MentionFinder:
                 if nxt.word_class == "lookalike" and not self.wordnet.is_verb(nxt.text):
                     kept.append(_with(unit, "depicted"))  # "a dog statue"
                     continue
-                if unit.word_class not in _LIVING_OR_VEHICLE and unit.word_class != "unknown":
-                    continue  # "tennis court", "aerial view", "stone wall"
+                if unit.word_class not in _LIVING_OR_VEHICLE or (
+                        unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown")):
+                    continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
             if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:
                 continue  # "arafed man": an unknown word before a noun qualifies it
             if unit.word_class == "abstract":

@@ -27,7 +27,7 @@ import numpy as np
 from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, CONSERVATIVE_Z_MIN_M
 
 from .grounding import NameIndex
-from .kb import KbEntry, KnowledgeBase
+from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .mentions import Found, tokenize
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
@@ -92,15 +92,29 @@ def window(words: Sequence[str], found: Found) -> str:
     return " ".join(words[found.start : max(found.end, found.start + WINDOW_WORDS)])
 
 
-def candidates(kb: KnowledgeBase, found: Found, text: str) -> list[KbEntry]:
+def candidates(kb: KnowledgeBase, found: Found, text: str, ridden: bool = False) -> list[KbEntry]:
     """The KB entries a mention may be grounded in: its class's; for a vehicle the moving ones,
-    or the parked ones when its window says it is parked."""
+    or the parked ones when its window says it is parked; for a person the riders (a person
+    class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it."""
     categories = CLASS_CATEGORIES.get(found.word_class, ())
     entries = [e for e in kb.entries if e.category in categories]
+    if found.word_class == "person" and not ridden:
+        floor = MIN_BUFFER_M["person"]
+        entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
     if found.word_class == "vehicle":
         parked = bool(STATIONARY_CUES.intersection(text.split()))
         entries = [e for e in entries if e.is_dynamic != parked] or entries
     return entries
+
+
+#: Named wheeled things a person can ride (KB ids outside the vehicle class).
+RIDDEN_IDS = frozenset({"bicycle"})
+
+
+def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
+    """Whether a vehicle or a bicycle is named within the person's window ("a boy riding his bicycle")."""
+    return any(person.end <= m.start < person.start + WINDOW_WORDS
+               and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS) for m in mentions)
 
 
 def ground_mentions(
@@ -110,7 +124,7 @@ def ground_mentions(
     words = tokenize(caption)
     present = [m for m in mentions if m.status == "present"]
     texts = [window(words, m) for m in present]
-    pools = [candidates(kb, m, t) for m, t in zip(present, texts, strict=True)]
+    pools = [candidates(kb, m, t, _ridden(m, mentions)) for m, t in zip(present, texts, strict=True)]
     todo = [k for k, pool in enumerate(pools) if len(pool) > 1]
     vectors = names.phrases([texts[k] for k in todo]) if todo else []
     by_k = dict(zip(todo, vectors, strict=True))
