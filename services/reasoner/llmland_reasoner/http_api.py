@@ -134,7 +134,8 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
         try:
             return engine.add_entry(KbEntry.model_validate(entry))
         except ValidationError as exc:
-            reasons = "; ".join(str(e.get("msg", "")) for e in exc.errors(include_url=False))
+            reasons = "; ".join(f"{'.'.join(str(x) for x in e.get('loc', ())) or 'entry'}: {e.get('msg', '')}"
+                                for e in exc.errors(include_url=False))
             raise HTTPException(422, f"invalid KB entry: {reasons}") from None
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
