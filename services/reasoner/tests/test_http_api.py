@@ -14,6 +14,7 @@ import httpx
 import pytest
 import schemathesis
 import uvicorn
+from fastapi import HTTPException
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from llmland_reasoner.engine import ReasonerEngine
@@ -21,7 +22,6 @@ from llmland_reasoner.http_api import create_app
 from llmland_reasoner.resources import Resources
 from llmland_reasoner.settings import ReasonerSettings
 from llmland_reasoner.upload import check_image, image_size
-from fastapi import HTTPException
 from llmland_schemas import Caption
 from PIL import Image
 from pydantic import SecretStr
