@@ -2,7 +2,9 @@
 
 ``data/captions_eval.jsonl`` is the held-out set (hand-written BLIP-style captions, never
 used to tune anything); ``data/captions_dev.jsonl`` is the set the prompt's few-shot examples
-and the grounding weight were chosen on. A caption is right when ``is_dynamic`` matches and
+and the grounding weight were chosen on. ``data/captions_public.jsonl`` holds captions that
+real captioners and people wrote (sources in ``data/PUBLIC_CAPTIONS.md``): its ``dev`` split
+was developed on, its ``eval`` split is held out. A caption is right when ``is_dynamic`` matches and
 ``buffer_m`` falls in the expected buffer class.
 
 Latency: *cold* = first time a caption is seen (cache miss, models already loaded and the
@@ -11,6 +13,7 @@ reported separately in ``load_s``. ``peak_rss_mb`` is this process's peak.
 
     python -m llmland_reasoner.evaluation --json                # all modes, one process each
     python -m llmland_reasoner.evaluation --mode rag --data dev
+    python -m llmland_reasoner.evaluation --data public:eval --ablations  # the public set, held out
 
 ``--mode all`` also runs ``rag_first_word``: rag with the LLM replaced by "the mention starts
 at the first content word", to show what the LLM adds over BLIP's word order.
@@ -42,6 +45,7 @@ log = logging.getLogger(__name__)
 BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
 MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
 _POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word: the no-LLM ablation of rag
+_EVERY_MENTION_ENV = "LLMLAND_REASONER_EVERY_MENTION"  # *_single_answer: without the safety layer
 
 
 class CaptionCase(BaseModel):
@@ -182,17 +186,26 @@ def evaluate(
     )
 
 
+def _classes(per_class: dict[str, dict[str, float]]) -> str:
+    return " ".join(f"{k} {v['acc']:.3f} ({int(v['n'])})" for k, v in per_class.items())
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=[*MODES, "all"], default="all")
-    parser.add_argument("--data", default="eval", help="eval | dev | path to a JSONL caption set")
+    parser.add_argument("--data", default="eval",
+                        help="eval | dev | public | public:dev | public:eval | path to a JSONL caption set")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--ablations", action="store_true",
+                        help="with --mode all: also rag and retrieval without the every-mention layer")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.mode == "all":  # one process per mode: honest load time and peak memory each
         reports = {}
         runs: list[tuple[str, str, dict[str, str]]] = [(mode, mode, {}) for mode in MODES]
         runs.append(("rag", "rag_first_word", {_POINTER_ENV: "first_word"}))
+        if args.ablations:  # the paper's single answer, without the every-mention safety layer
+            runs += [(m, f"{m}_single_answer", {_EVERY_MENTION_ENV: "false"}) for m in ("rag", "retrieval")]
         for mode, name, env in runs:
             cmd = [sys.executable, "-m", "llmland_reasoner.evaluation", "--mode", mode, "--data", args.data, "--json"]
             out = subprocess.run(cmd, check=True, capture_output=True, text=True, env={**os.environ, **env}).stdout
@@ -209,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"  cold p50/p95 {rep['latency_cold_ms']['p50']}/{rep['latency_cold_ms']['p95']} ms"
                 f"  cpu p50 {rep['cpu_cold_ms']['p50']} ms  warm p50 {rep['latency_warm_ms']['p50']} ms"
                 f"  rss {rep['peak_rss_mb']} MB"
-                f"  fallbacks {rep['fallbacks']}\n"
+                f"  fallbacks {rep['fallbacks']}  unsafe {rep['unsafe']}\n"
+                f"          per class: {_classes(rep['per_class'])}\n"
             )
     return 0
 
