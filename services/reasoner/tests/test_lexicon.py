@@ -22,7 +22,7 @@ BEYOND_KB: dict[str, str] = {
     # things and places
     "effigy": "lookalike", "photograph": "lookalike", "fountain": "structure", "windmill": "structure",
     "pavilion": "structure", "shovel": "object", "kite": "animal", "cactus": "vegetation", "valley": "terrain",
-    "cliff": "terrain", "view": "abstract", "sunset": "abstract",
+    "cliff": "terrain", "view": "abstract", "sunset": "abstract", "tiger": "animal",
 }
 
 

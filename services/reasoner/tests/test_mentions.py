@@ -30,7 +30,7 @@ def present(found: list[Found]) -> dict[str, str]:
     ("a child, a parked car, a tree", {"child": "person", "parked car": "vehicle", "tree": "vegetation"}),
     # plurals, crowds, traffic
     ("lots of traffic", {"traffic": "vehicle"}),
-    ("a parking lot full of cars", {"cars": "vehicle"}),
+    ("a parking lot full of cars", {"parking lot": "terrain", "cars": "vehicle"}),
     ("geese on a lake", {"geese": "animal", "lake": "terrain"}),
     ("two men fishing", {"men": "person"}),
     ("a group of people walking around a bus", {"group of people": "person", "bus": "vehicle"}),
@@ -40,8 +40,8 @@ def present(found: list[Found]) -> dict[str, str]:
     ("a quokka on a rock", {"quokka": "unknown", "rock": "terrain"}),
     # qualifiers and verbs are not things; captioner artefacts are not things
     ("arafed man standing in a field", {"man": "person", "field": "terrain"}),
-    ("a tennis player swings his racket at a ball", {"tennis player": "person", "ball": "structure"}),
-    ("a blonde dog is digging a hole", {"dog": "animal", "hole": "object"}),
+    ("a tennis player swings his racket at a ball", {"tennis player": "person", "racket": "object", "ball": "structure"}),
+    ("a blonde dog is digging a hole", {"dog": "animal", "hole": "terrain"}),
     ("a green volkswagen beetle parked in front of a building", {"beetle": "vehicle", "building": "structure"}),
 ])
 def test_every_mention_is_found(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
