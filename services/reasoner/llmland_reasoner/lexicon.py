@@ -9,8 +9,9 @@ with Unix line ends is written once under ``cache_dir`` (atomically) and read fr
 Each sense is classed by the first anchor synset (:data:`ANCHORS`) on its hypernym closure.
 Captions describe what is there, so a word's concrete senses (things, places, people and
 groups of them) are used when it has any ("yard": the garden, not the unit of length);
-proper-noun senses ("Fields", the comedian) are skipped. Of those, the common ones count: more than half as frequent as the most
-frequent in the sense-tagged SemCor corpus (the counts WordNet ships), or the first
+proper-noun senses ("Fields", the comedian) are skipped. Of those, the common ones count:
+more than half as frequent as the most frequent in the sense-tagged SemCor corpus (the
+counts WordNet ships), or the first
 :data:`UNCOUNTED_SENSES` when the word has no counts ("alpaca", "excavator"). If a common
 sense is a person, animal or vehicle, the word takes the most careful of those; otherwise
 its most frequent sense. A

@@ -40,7 +40,8 @@ def present(found: list[Found]) -> dict[str, str]:
     ("a quokka on a rock", {"quokka": "unknown", "rock": "terrain"}),
     # qualifiers and verbs are not things; captioner artefacts are not things
     ("arafed man standing in a field", {"man": "person", "field": "terrain"}),
-    ("a tennis player swings his racket at a ball", {"tennis player": "person", "racket": "object", "ball": "structure"}),
+    ("a tennis player swings his racket at a ball",
+     {"tennis player": "person", "racket": "object", "ball": "structure"}),
     ("a blonde dog is digging a hole", {"dog": "animal", "hole": "terrain"}),
     ("a green volkswagen beetle parked in front of a building", {"beetle": "vehicle", "building": "structure"}),
 ])
