@@ -56,8 +56,9 @@ QUANTIFIERS = frozenset(
 )
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
 PARKED = frozenset({"parked", "docked", "moored"})
-#: Nouns for the image itself when they open the caption: "a photo of a man running" shows a
-#: man. After another noun ("a billboard with a picture of a car") they are depictions.
+#: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
+#: never read as depictions ("a billboard with a picture of a car" keeps the car: ambiguous,
+#: so careful).
 IMAGE_NOUNS = frozenset(
     "photo photograph picture image pic view shot snapshot closeup close-up scene screenshot frame "
     "aerial overhead".split()
@@ -76,7 +77,7 @@ DEPICTION_MODIFIERS = frozenset(
 #: Flat things that show pictures: "a dog on a poster" is a picture of a dog.
 DISPLAY_NOUNS = frozenset(
     "poster billboard mural painting sign banner screen television tv advert advertisement graffiti "
-    "picture photo photograph drawing".split()
+    "drawing".split()
 )
 _TOKEN = re.compile(r"[a-z0-9]+(?:[-'][a-z0-9]+)*|[,;]")
 _LIVING_OR_VEHICLE = frozenset({"person", "animal", "vehicle"})
@@ -151,7 +152,7 @@ class MentionFinder:
 
     def _unit(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
         """The lexical unit starting at ``i``: (length, class, source, kb id), or None."""
-        if words[i] in IMAGE_NOUNS and self._opens_caption(words, i):
+        if words[i] in IMAGE_NOUNS:
             return None
         kb = self._kb_match(words, i)
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
@@ -170,10 +171,6 @@ class MentionFinder:
                 cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
         return None
-
-    def _opens_caption(self, words: Sequence[str], i: int) -> bool:
-        """Whether only function words (or "there is") come before position ``i``."""
-        return all(w in FUNCTION_WORDS or w in IMAGE_NOUNS for w in words[:i])
 
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
         """A WordNet two-word noun ("bus stop", "car park") that names a physical thing."""
@@ -218,7 +215,7 @@ class MentionFinder:
         kept: list[Found] = []
         for k, unit in enumerate(units):
             nxt = units[k + 1] if k + 1 < len(units) else None
-            if nxt is not None and nxt.start == unit.end:
+            if nxt is not None and nxt.start == unit.end and nxt.word_class != "abstract":
                 if nxt.word_class == "lookalike" and unit.word_class in _LIVING_OR_VEHICLE \
                         and not self.wordnet.is_verb(nxt.text):
                     kept.append(_with(unit, "depicted"))  # "a dog statue"

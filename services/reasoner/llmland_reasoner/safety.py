@@ -34,6 +34,8 @@ from .mentions import Found, tokenize
 WINDOW_WORDS = 4
 #: Similarity bonus for the entry whose own name matched the mention (chosen on the dev sets).
 NAME_MATCH_BONUS = 0.05
+#: How far from a vehicle a stationary cue may stand (words).
+CUE_REACH = 3
 #: Words that say a vehicle is not moving (not "stopped": a bus stopped at a corner moves on).
 STATIONARY_CUES = frozenset(
     "parked parking stationary docked moored anchored abandoned wrecked wreck junked".split()
@@ -92,7 +94,7 @@ def window(words: Sequence[str], found: Found) -> str:
     return " ".join(words[found.start : max(found.end, found.start + WINDOW_WORDS)])
 
 
-def candidates(kb: KnowledgeBase, found: Found, text: str, ridden: bool = False) -> list[KbEntry]:
+def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bool = False) -> list[KbEntry]:
     """The KB entries a mention may be grounded in: its class's; for a vehicle the moving ones,
     or the parked ones when its window says it is parked; for a place the KB does not name,
     plain ground (water and rocks only by name); for a person the riders (a person
@@ -105,7 +107,6 @@ def candidates(kb: KnowledgeBase, found: Found, text: str, ridden: bool = False)
         floor = MIN_BUFFER_M["person"]
         entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
     if found.word_class == "vehicle":
-        parked = bool(STATIONARY_CUES.intersection(text.split()))
         entries = [e for e in entries if e.is_dynamic != parked] or entries
     return entries
 
@@ -120,6 +121,18 @@ def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
                and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS) for m in mentions)
 
 
+def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:
+    """Whether a stationary cue belongs to this vehicle: within :data:`CUE_REACH` words after it
+    ("cars are parked") or before it ("parked with numerous cars"), no other thing in between."""
+    others = [m for m in mentions if m is not vehicle]
+    for j in range(max(0, vehicle.start - CUE_REACH), min(len(words), vehicle.end + CUE_REACH)):
+        if words[j] in STATIONARY_CUES and not (vehicle.start <= j < vehicle.end):
+            lo, hi = sorted((j, vehicle.start if j < vehicle.start else vehicle.end - 1))
+            if not any(lo < m.start <= hi or lo <= m.end - 1 < hi for m in others):
+                return True
+    return any(w in STATIONARY_CUES for w in words[vehicle.start : vehicle.end])  # "parked car"
+
+
 def ground_mentions(
     caption: str, mentions: Sequence[Found], kb: KnowledgeBase, names: NameIndex
 ) -> list[Grounded]:
@@ -127,7 +140,7 @@ def ground_mentions(
     words = tokenize(caption)
     present = [m for m in mentions if m.status == "present"]
     texts = [window(words, m) for m in present]
-    pools = [candidates(kb, m, t, _ridden(m, mentions)) for m, t in zip(present, texts, strict=True)]
+    pools = [candidates(kb, m, _parked(words, m, mentions), _ridden(m, mentions)) for m in present]
     todo = [k for k, pool in enumerate(pools) if len(pool) > 1]
     vectors = names.phrases([texts[k] for k in todo]) if todo else []
     by_k = dict(zip(todo, vectors, strict=True))
