@@ -60,7 +60,9 @@ def test_public_set_is_sourced_and_covers_every_class() -> None:
     assert not own & {c.caption.lower() for c in cases}  # apart from the project's own sets
 
 
-def test_public_held_out_split_never_unsafe(resources: Resources, record_property: Callable[[str, object], None]) -> None:
+def test_public_held_out_split_never_unsafe(
+    resources: Resources, record_property: Callable[[str, object], None]
+) -> None:
     """Captions real captioners and people wrote: never a moving thing made static or given a
     smaller buffer than its class; accuracy floors at the measured figures (README)."""
     rag = evaluate("rag", "public:heldout", resources=resources)
