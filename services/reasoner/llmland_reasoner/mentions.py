@@ -35,6 +35,8 @@ MAX_NAME_WORDS = 4
 NEGATION_REACH = 3
 NEGATORS = frozenset({"no", "without"})
 COORDINATORS = frozenset({"or", "nor"})
+#: Words between a negator and a noun that end the negation ("no one but a man", "no, a dog").
+NEGATION_STOP = frozenset({"one", "body", "but", "except", "besides", "apart", "only", "just", "save", ",", ";"})
 DETERMINERS = frozenset(
     "a an the this that these those some many several few two three four five six seven eight nine ten "
     "dozens lots lot numerous various one another each every other".split()
@@ -207,7 +209,7 @@ class MentionFinder:
                 i += 1
         mentions = self._heads(units)
         mentions = self._mark_depicted(words, mentions)
-        mentions = self._mark_depiction_modifiers(words, mentions)
+        mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
 
     def _heads(self, units: list[Found]) -> list[Found]:
@@ -264,8 +266,9 @@ class MentionFinder:
             if word not in NEGATORS:
                 continue
             k = next((k for k, m in enumerate(out) if m.start > p), None)
-            if k is None or out[k].start - p > NEGATION_REACH:
-                continue
+            between = words[p + 1 : out[k].start] if k is not None else []
+            if k is None or out[k].start - p > NEGATION_REACH or NEGATION_STOP.intersection(between):
+                continue  # too far, or "no one but a man": the negation is not about that mention
             while True:
                 out[k] = _with(out[k], "negated")
                 after = out[k].end

@@ -74,6 +74,8 @@ def test_negation_and_depiction_lower_only_what_they_name(
     "a statue of a soldier, children playing nearby",  # the depiction ends at the comma
     "there is not a person but a man walking",  # "not" never lowers
     "a child running on the road. no child",  # a negation lowers its own mention only
+    "no one but a man walking on the road",  # the negation is about "one", not the man
+    "there is nobody except a child on the beach",
     "a man standing next to a statue",
 ])
 def test_ambiguous_or_partial_negation_keeps_the_person(finder: MentionFinder, caption: str) -> None:
