@@ -34,6 +34,8 @@ log = logging.getLogger(__name__)
 CaptionFn = Callable[[bytes], Caption | None]
 #: Routes whose body is JSON: checked for UTF-8, JSON and lone surrogates before FastAPI parses it.
 JSON_ROUTES = frozenset({"/v1/reason", "/v1/kb"})
+#: The largest JSON body accepted (bytes): a caption is at most 1000 characters, a KB entry ~1 kB.
+MAX_JSON_BYTES = 64 * 1024
 
 
 class ReasonRequest(BaseModel):
@@ -80,14 +82,21 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
 
     @app.middleware("http")
     async def json_bodies(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
-        """JSON routes: 415 for another content type (multipart, an image), 422 for a body that
-        is not UTF-8 JSON or holds a lone surrogate; nothing malformed reaches a handler."""
+        """JSON routes: 415 for another content type (multipart, an image), 413 over
+        :data:`MAX_JSON_BYTES`, 422 for a body that is not UTF-8 JSON or holds a lone surrogate;
+        nothing malformed reaches a handler."""
         if request.method == "POST" and request.url.path in JSON_ROUTES:
             ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
             if ctype != "application/json":
                 return AsciiJSONResponse({"detail": f"send application/json, not {ctype or 'no content type'}"},
                                          status_code=415)
-            problem = json_body_problem(await request.body())
+            declared = request.headers.get("content-length", "")
+            if declared.isdigit() and int(declared) > MAX_JSON_BYTES:
+                return AsciiJSONResponse({"detail": f"JSON body over {MAX_JSON_BYTES} bytes"}, status_code=413)
+            body = await request.body()
+            if len(body) > MAX_JSON_BYTES:
+                return AsciiJSONResponse({"detail": f"JSON body over {MAX_JSON_BYTES} bytes"}, status_code=413)
+            problem = json_body_problem(body)
             if problem is not None:
                 return AsciiJSONResponse({"detail": problem}, status_code=422)
         return await call_next(request)

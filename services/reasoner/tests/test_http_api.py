@@ -120,6 +120,12 @@ def test_reason_refuses_bodies_that_are_not_unicode_json_with_422(base_url: str,
     assert r.json()["detail"]
 
 
+def test_oversized_json_is_413_before_parsing(base_url: str) -> None:
+    body = b'{"caption": "' + b"a" * 200_000 + b'"}'
+    r = httpx.post(f"{base_url}/v1/reason", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 413 and r.json()["detail"]
+
+
 def test_kb_write_with_a_surrogate_is_422(base_url: str) -> None:
     body = b'{"id": "x", "label": "\\ud800", "category": "structure", "is_dynamic": false, "is_human": false,' \
            b' "z_min": 1, "buffer_m": 1, "description": "x"}'
