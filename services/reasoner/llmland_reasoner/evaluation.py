@@ -2,7 +2,9 @@
 
 ``data/captions_eval.jsonl`` is the held-out set (hand-written BLIP-style captions, never
 used to tune anything); ``data/captions_dev.jsonl`` is the set the prompt's few-shot examples
-and the grounding weight were chosen on. A caption is right when ``is_dynamic`` matches and
+and the grounding weight were chosen on. ``data/captions_public.jsonl`` holds captions that
+real captioners and people wrote (sources in ``data/PUBLIC_CAPTIONS.md``): its ``dev`` split
+was developed on, its ``eval`` split is held out. A caption is right when ``is_dynamic`` matches and
 ``buffer_m`` falls in the expected buffer class.
 
 Latency: *cold* = first time a caption is seen (cache miss, models already loaded and the
@@ -11,6 +13,7 @@ reported separately in ``load_s``. ``peak_rss_mb`` is this process's peak.
 
     python -m llmland_reasoner.evaluation --json                # all modes, one process each
     python -m llmland_reasoner.evaluation --mode rag --data dev
+    python -m llmland_reasoner.evaluation --data public:eval --ablations  # the public set, held out
 
 ``--mode all`` also runs ``rag_first_word``: rag with the LLM replaced by "the mention starts
 at the first content word", to show what the LLM adds over BLIP's word order.
@@ -42,13 +45,24 @@ log = logging.getLogger(__name__)
 BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
 MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
 _POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word: the no-LLM ablation of rag
+_EVERY_MENTION_ENV = "LLMLAND_REASONER_EVERY_MENTION"  # *_single_answer: without the safety layer
 
 
 class CaptionCase(BaseModel):
     caption: str
-    is_dynamic: bool
+    #: None: the caption does not say whether the vehicle moves (either answer is right)
+    is_dynamic: bool | None
     buffer_class: Literal["ground", "static", "person", "animal", "vehicle"]
     expect: str = ""  # the KB id a person would pick (informative, not scored)
+    #: what the caption's most careful thing is (per-class figures); default: from buffer_class
+    kind: Literal["person", "animal", "vehicle", "static", "ground", ""] = ""
+    split: str = ""  # public set: dev (developed on) or eval (held out)
+    source: str = ""  # public set: repository + path (+ image) the caption comes from
+
+    @property
+    def cls(self) -> str:
+        """The class the per-class figures count it in (the project's sets: the buffer class)."""
+        return self.kind or self.buffer_class
 
 
 class EvalReport(BaseModel):
@@ -65,6 +79,10 @@ class EvalReport(BaseModel):
     load_s: dict[str, float]
     peak_rss_mb: float
     llm_changed_retrieval: int | None = None  # rag: how often the LLM's pick differs from retrieval's top-1
+    #: accuracy (both fields right) per class of the caption's most careful thing
+    per_class: dict[str, dict[str, float]] = {}
+    #: a person, animal or vehicle answered static when it moves, or with a smaller buffer than its class
+    unsafe: int = 0
     misses: list[dict[str, Any]] = []
 
 
@@ -75,12 +93,22 @@ def buffer_class(buffer_m: float) -> str:
 
 
 def load_cases(data: str = "eval") -> list[CaptionCase]:
-    """``eval``, ``dev`` (packaged sets) or a path to a JSONL file."""
-    if data in ("eval", "dev"):
-        text = (pkg_resources.files("llmland_reasoner") / "data" / f"captions_{data}.jsonl").read_text("utf-8")
+    """``eval``, ``dev`` (the project's sets), ``public`` (captions real captioners and people
+    wrote; ``public:dev`` / ``public:eval`` for its splits) or a path to a JSONL file."""
+    name, _, split = data.partition(":")
+    if name in ("eval", "dev", "public"):
+        text = (pkg_resources.files("llmland_reasoner") / "data" / f"captions_{name}.jsonl").read_text("utf-8")
     else:
         text = Path(data).read_text(encoding="utf-8")
-    return [CaptionCase.model_validate_json(line) for line in text.splitlines() if line.strip()]
+    cases = [CaptionCase.model_validate_json(line) for line in text.splitlines() if line.strip()]
+    return [c for c in cases if c.split == split] if split else cases
+
+
+def is_unsafe(case: CaptionCase, is_dynamic: bool, buffer_m: float) -> bool:
+    """A moving thing answered static, or a person, animal or vehicle given less than its buffer."""
+    if case.buffer_class not in ("person", "animal", "vehicle"):
+        return False
+    return (case.is_dynamic is True and not is_dynamic) or buffer_m < BUFFER_CLASSES[case.buffer_class] - 1e-6
 
 
 def _pct(values: list[float]) -> dict[str, float]:
@@ -100,7 +128,8 @@ def evaluate(
     cases = load_cases(data)[::stride]
     extractor = SpecExtractor(mode, settings=settings, resources=resources)
     extractor.warm_up()
-    ok_dyn = ok_buf = ok_both = fallbacks = changed = 0
+    ok_dyn = ok_buf = ok_both = fallbacks = changed = unsafe = 0
+    by_class: dict[str, list[bool]] = {}
     cold: list[float] = []
     warm: list[float] = []
     cpu: list[float] = []
@@ -112,11 +141,14 @@ def evaluate(
         cold.append(first.spec.latency_ms)
         warm.append(extractor.extract_detailed(case.caption).spec.latency_ms)
         spec = first.spec
-        dyn_ok = spec.is_dynamic == case.is_dynamic
+        dyn_ok = case.is_dynamic is None or spec.is_dynamic == case.is_dynamic
         buf_ok = buffer_class(spec.buffer_m) == case.buffer_class
         ok_dyn += dyn_ok
         ok_buf += buf_ok
         ok_both += dyn_ok and buf_ok
+        by_class.setdefault(case.cls, []).append(dyn_ok and buf_ok)
+        bad = is_unsafe(case, spec.is_dynamic, spec.buffer_m)
+        unsafe += bad
         fallbacks += spec.source == "fallback"
         changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
         if not (dyn_ok and buf_ok):
@@ -129,6 +161,7 @@ def evaluate(
                     "buffer_m": spec.buffer_m,
                     "phrase": first.phrase,
                     "error": first.error,
+                    "unsafe": bad,
                 }
             )
     extractor.close()
@@ -147,21 +180,32 @@ def evaluate(
         load_s={k: round(v, 2) for k, v in extractor.resources.load_s.items()},
         peak_rss_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
         llm_changed_retrieval=changed if mode == "rag" else None,
+        per_class={k: {"n": len(v), "acc": round(sum(v) / len(v), 4)} for k, v in sorted(by_class.items())},
+        unsafe=unsafe,
         misses=misses,
     )
+
+
+def _classes(per_class: dict[str, dict[str, float]]) -> str:
+    return " ".join(f"{k} {v['acc']:.3f} ({int(v['n'])})" for k, v in per_class.items())
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=[*MODES, "all"], default="all")
-    parser.add_argument("--data", default="eval", help="eval | dev | path to a JSONL caption set")
+    parser.add_argument("--data", default="eval",
+                        help="eval | dev | public | public:dev | public:eval | path to a JSONL caption set")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--ablations", action="store_true",
+                        help="with --mode all: also rag and retrieval without the every-mention layer")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     if args.mode == "all":  # one process per mode: honest load time and peak memory each
         reports = {}
         runs: list[tuple[str, str, dict[str, str]]] = [(mode, mode, {}) for mode in MODES]
         runs.append(("rag", "rag_first_word", {_POINTER_ENV: "first_word"}))
+        if args.ablations:  # the paper's single answer, without the every-mention safety layer
+            runs += [(m, f"{m}_single_answer", {_EVERY_MENTION_ENV: "false"}) for m in ("rag", "retrieval")]
         for mode, name, env in runs:
             cmd = [sys.executable, "-m", "llmland_reasoner.evaluation", "--mode", mode, "--data", args.data, "--json"]
             out = subprocess.run(cmd, check=True, capture_output=True, text=True, env={**os.environ, **env}).stdout
@@ -178,7 +222,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"  cold p50/p95 {rep['latency_cold_ms']['p50']}/{rep['latency_cold_ms']['p95']} ms"
                 f"  cpu p50 {rep['cpu_cold_ms']['p50']} ms  warm p50 {rep['latency_warm_ms']['p50']} ms"
                 f"  rss {rep['peak_rss_mb']} MB"
-                f"  fallbacks {rep['fallbacks']}\n"
+                f"  fallbacks {rep['fallbacks']}  unsafe {rep['unsafe']}\n"
+                f"          per class: {_classes(rep['per_class'])}\n"
             )
     return 0
 

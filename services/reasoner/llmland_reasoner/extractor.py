@@ -121,6 +121,7 @@ class SpecExtractor:
             source=self.mode,
             model=outcome.model,
             latency_ms=_ms(started),
+            mentions=outcome.mentions,
         )
         result = Extraction(spec=spec, phrase=outcome.phrase, retrieval_top1=outcome.retrieval_top1)
         self._cache_put(key, result)
@@ -130,10 +131,10 @@ class SpecExtractor:
     def _run(self, caption: str) -> Outcome:
         res, s = self.resources, self.settings
         if self.mode == "retrieval":
-            return run_retrieval(caption, res)
+            return run_retrieval(caption, res, s.every_mention)
         if self.mode == "llm":
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
-        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer)
+        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention)
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)

@@ -59,6 +59,10 @@ class NameIndex:
     def phrase(self, text: str) -> np.ndarray:
         return np.asarray(self._embed([text])[0], dtype=np.float64)
 
+    def phrases(self, texts: list[str]) -> list[np.ndarray]:
+        """Several phrases in one embedding call."""
+        return [np.asarray(v, dtype=np.float64) for v in self._embed(texts)]
+
 
 def rank_prior(n: int) -> np.ndarray:
     """1 for the first retrieved candidate down to 0 for the last."""

@@ -11,27 +11,31 @@ every route but ``/healthz`` needs ``Authorization: Bearer <token>``.
 
 from __future__ import annotations
 
-import io
+import json
 import logging
 import secrets
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from typing import Annotated, Any
 
-from fastapi import Depends, FastAPI, File, Header, HTTPException, UploadFile
+from fastapi import Depends, FastAPI, File, Header, HTTPException, Request, Response, UploadFile
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
 from llmland_schemas import Caption, SafetySpec
-from PIL import Image, UnidentifiedImageError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from .engine import ReasonerEngine
 from .kb import KbEntry
 from .settings import Mode, ReasonerSettings
+from .upload import check_image, json_body_problem
 
 log = logging.getLogger(__name__)
 
 #: image bytes → caption, or None when no captioning service answered
 CaptionFn = Callable[[bytes], Caption | None]
-IMAGE_MAGIC = {b"\x89PNG\r\n\x1a\n": "PNG", b"\xff\xd8\xff": "JPEG"}
-MAX_PIXELS = 4096 * 4096
+#: Routes whose body is JSON: checked for UTF-8, JSON and lone surrogates before FastAPI parses it.
+JSON_ROUTES = frozenset({"/v1/reason", "/v1/kb"})
+#: The largest JSON body accepted (bytes): a caption is at most 1000 characters, a KB entry ~1 kB.
+MAX_JSON_BYTES = 64 * 1024
 
 
 class ReasonRequest(BaseModel):
@@ -55,27 +59,47 @@ class Health(BaseModel):
     llm: dict[str, Any] | None = None
 
 
-def _check_image(data: bytes, limit: int) -> None:
-    if not data:
-        raise HTTPException(400, "empty upload: send a PNG or JPEG image in the 'image' field")
-    if len(data) > limit:
-        raise HTTPException(413, f"image of {len(data)} bytes exceeds the limit of {limit} bytes")
-    if not any(data.startswith(m) for m in IMAGE_MAGIC):
-        raise HTTPException(415, "not a PNG or JPEG image")
-    try:
-        with Image.open(io.BytesIO(data)) as img:
-            if img.width * img.height > MAX_PIXELS:
-                raise HTTPException(413, f"image of {img.width}x{img.height} pixels is too large")
-            img.verify()
-    except HTTPException:
-        raise
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
-        raise HTTPException(400, f"corrupt image: {exc}") from None
+class AsciiJSONResponse(JSONResponse):
+    """JSON with every non-ASCII character escaped: a lone surrogate echoed back cannot break it."""
+
+    def render(self, content: Any) -> bytes:
+        return json.dumps(content, ensure_ascii=True, allow_nan=False, separators=(",", ":")).encode("ascii")
+
+
+def _error_list(exc: RequestValidationError) -> list[dict[str, Any]]:
+    """The validation errors without the offending input (it may be bytes or not Unicode)."""
+    return [{"type": str(e.get("type", "")), "loc": [str(x) for x in e.get("loc", ())], "msg": str(e.get("msg", ""))}
+            for e in exc.errors()]
 
 
 def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: ReasonerSettings) -> FastAPI:
-    app = FastAPI(title="LLM-Land reasoner", version="0.1.0",
+    app = FastAPI(title="LLM-Land reasoner", version="0.1.0", default_response_class=AsciiJSONResponse,
                   description="Captions and images to drone-landing safety specs (RAG + local LLM).")
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(_request: Request, exc: RequestValidationError) -> Response:
+        return AsciiJSONResponse({"detail": _error_list(exc)}, status_code=422)
+
+    @app.middleware("http")
+    async def json_bodies(request: Request, call_next: Callable[[Request], Awaitable[Response]]) -> Response:
+        """JSON routes: 415 for another content type (multipart, an image), 413 over
+        :data:`MAX_JSON_BYTES`, 422 for a body that is not UTF-8 JSON or holds a lone surrogate;
+        nothing malformed reaches a handler."""
+        if request.method == "POST" and request.url.path in JSON_ROUTES:
+            ctype = request.headers.get("content-type", "").split(";")[0].strip().lower()
+            if ctype != "application/json":
+                return AsciiJSONResponse({"detail": f"send application/json, not {ctype or 'no content type'}"},
+                                         status_code=415)
+            declared = request.headers.get("content-length", "")
+            if declared.isdigit() and int(declared) > MAX_JSON_BYTES:
+                return AsciiJSONResponse({"detail": f"JSON body over {MAX_JSON_BYTES} bytes"}, status_code=413)
+            body = await request.body()
+            if len(body) > MAX_JSON_BYTES:
+                return AsciiJSONResponse({"detail": f"JSON body over {MAX_JSON_BYTES} bytes"}, status_code=413)
+            problem = json_body_problem(body)
+            if problem is not None:
+                return AsciiJSONResponse({"detail": problem}, status_code=422)
+        return await call_next(request)
     token = settings.api_token.get_secret_value() if settings.api_token else None
 
     def auth(authorization: Annotated[str | None, Header()] = None) -> None:
@@ -102,7 +126,7 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
               responses={503: {"description": "no captioning (VLE) service answered"}})
     async def spec(image: Annotated[UploadFile, File(description="PNG or JPEG")]) -> SafetySpec:
         data = await image.read(settings.max_upload_bytes + 1)
-        _check_image(data, settings.max_upload_bytes)
+        check_image(data, settings.max_upload_bytes)
         caption = caption_fn(data)
         if caption is None:
             raise HTTPException(503, "no VLE service answered on llmland/vle/caption: start llmland-vle")
@@ -119,7 +143,9 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
         try:
             return engine.add_entry(KbEntry.model_validate(entry))
         except ValidationError as exc:
-            raise HTTPException(422, f"invalid KB entry: {exc.errors(include_url=False)}") from None
+            reasons = "; ".join(f"{'.'.join(str(x) for x in e.get('loc', ())) or 'entry'}: {e.get('msg', '')}"
+                                for e in exc.errors(include_url=False))
+            raise HTTPException(422, f"invalid KB entry: {reasons}") from None
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
 

@@ -20,6 +20,13 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 log = logging.getLogger(__name__)
 
+#: Minimum horizontal buffers by category (metres). Person and vehicle: the paper's defaults
+#: (pedestrians 3 m, vehicles 5 m); animal: the KB's animal class (they move less predictably
+#: than people and ignore the drone).
+MIN_BUFFER_M: dict[str, float] = {"person": 3.0, "animal": 4.0, "vehicle": 5.0}
+#: Categories whose members move by themselves.
+LIVING = frozenset({"person", "animal"})
+
 Category = Literal["person", "animal", "vehicle", "structure", "vegetation", "terrain", "lookalike"]
 EntryId = Annotated[str, Field(pattern=r"^[a-z0-9][a-z0-9_]{0,63}$")]
 Metres = Annotated[float, Field(ge=0.0, le=200.0, allow_inf_nan=False)]
@@ -43,18 +50,31 @@ class KbEntry(BaseModel):
 
     @model_validator(mode="after")
     def _consistent(self) -> KbEntry:
-        if self.is_human and not self.is_dynamic:
-            raise ValueError(f"{self.id}: a human is always dynamic")
-        if self.is_human and self.buffer_m < 3.0:
-            raise ValueError(f"{self.id}: a human needs a buffer of at least 3 m (paper default)")
-        if self.category == "vehicle" and self.is_dynamic and self.buffer_m < 5.0:
-            raise ValueError(f"{self.id}: a moving vehicle needs a buffer of at least 5 m (paper default)")
+        """Safety rules by category; a write that breaks one is refused with the reason."""
+        problems = category_problems(self)
+        if problems:
+            raise ValueError(f"{self.id}: " + "; ".join(problems))
         return self
 
     def chunk_text(self) -> str:
         """The text indexed for retrieval: label, synonyms and description."""
         also = ", ".join(self.synonyms)
         return f"{self.label} ({self.category}). Also: {also}. {self.description}"
+
+
+def category_problems(entry: KbEntry) -> list[str]:
+    """Why an entry is unsafe for its category (empty when it is fine)."""
+    problems: list[str] = []
+    if entry.category == "person" and not entry.is_human:
+        problems.append("an entry in category person must have is_human true")
+    if entry.category != "person" and entry.is_human:
+        problems.append(f"only category person may be human (category is {entry.category})")
+    if entry.category in LIVING and not entry.is_dynamic:
+        problems.append(f"category {entry.category} moves by itself: is_dynamic must be true")
+    floor = MIN_BUFFER_M.get(entry.category)
+    if floor is not None and entry.buffer_m < floor:
+        problems.append(f"category {entry.category} needs buffer_m >= {floor} m (got {entry.buffer_m} m)")
+    return problems
 
 
 class KbDocument(BaseModel):

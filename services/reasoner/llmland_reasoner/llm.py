@@ -18,6 +18,7 @@ from __future__ import annotations
 import ctypes
 import importlib.util
 import logging
+import re
 import threading
 from collections import OrderedDict
 from collections.abc import Sequence
@@ -59,6 +60,18 @@ def default_gguf_path() -> Path:
     return Path(list(spec.submodule_search_locations)[0]) / SMOLLM2_FILE
 
 
+#: Private-use characters that mark untrusted text inside a prompt (see :func:`plain`).
+PLAIN_OPEN = "\ue000"
+PLAIN_CLOSE = "\ue001"
+_PLAIN_SPLIT = re.compile(f"[{PLAIN_OPEN}{PLAIN_CLOSE}]")
+
+
+def plain(text: str) -> str:
+    """Mark ``text`` to be tokenised as plain text (never as special tokens); markers inside
+    it are removed, so it cannot close its own span."""
+    return PLAIN_OPEN + _PLAIN_SPLIT.sub("", text) + PLAIN_CLOSE
+
+
 def _log_softmax(logits: np.ndarray) -> np.ndarray:
     shifted = logits - logits.max()
     return shifted - np.log(np.exp(shifted).sum())
@@ -92,9 +105,15 @@ class LlamaCppBackend:
 
     # ------------------------------------------------------------------ tokens
     def _tok(self, text: str) -> list[int]:
+        """Tokens of a prompt part: the template's chat markup as special tokens, every span
+        marked by :func:`plain` (captions: untrusted input) as plain text, ``special=False``, so
+        "<|im_end|>" typed into a caption is just characters."""
         cached = self._tokens.get(text)
         if cached is None:
-            cached = self._llm.tokenize(text.encode("utf-8"), add_bos=False, special=True)
+            cached = []
+            for k, part in enumerate(_PLAIN_SPLIT.split(text)):
+                if part:  # odd parts lay between the plain-text markers
+                    cached += self._llm.tokenize(part.encode("utf-8"), add_bos=False, special=k % 2 == 0)
             if len(self._tokens) > 4096:
                 self._tokens.clear()
             self._tokens[text] = cached

@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import json
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
+from llmland_schemas.messages import MentionResult
 from pydantic import BaseModel, ConfigDict, Field
 
 from . import prompts
@@ -17,6 +18,7 @@ from .grounding import ground
 from .kb import KbEntry
 from .mention import caption_words, choose_mention, content_positions
 from .resources import Resources
+from .safety import Numbers, ground_mentions, most_careful
 
 
 def normalize_caption(caption: str) -> str:
@@ -35,10 +37,55 @@ class Outcome:
     evidence: list[tuple[str, float]] = field(default_factory=list)
     phrase: str = ""
     retrieval_top1: str = ""
+    mentions: list[MentionResult] = field(default_factory=list)
 
     @classmethod
-    def from_entry(cls, entry: KbEntry, model: str, evidence: list[tuple[str, float]], **kw: str) -> Outcome:
-        return cls(entry.is_dynamic, entry.z_min, entry.buffer_m, entry.label, model, evidence, **kw)
+    def from_entry(cls, entry: KbEntry, model: str, evidence: list[tuple[str, float]], phrase: str = "",
+                   retrieval_top1: str = "") -> Outcome:
+        return cls(entry.is_dynamic, entry.z_min, entry.buffer_m, entry.label, model, evidence, phrase,
+                   retrieval_top1)
+
+
+def _result(text: str, source: str, n: Numbers) -> MentionResult:
+    return MentionResult.model_validate(
+        {"text": text, "source": source, "label": n.label, "kb_id": n.kb_id, "is_dynamic": n.is_dynamic,
+         "z_min": n.z_min, "buffer_m": n.buffer_m}
+    )
+
+
+def most_careful_of_mentions(caption: str, answer: Outcome, answer_entry: KbEntry, answer_source: str,
+                             res: Resources, pointed: str = "") -> Outcome:
+    """The safety layer: every mention of the caption grounded in the KB; the spec is the most
+    careful present mention. The mode's own answer (the LLM's pick in rag, the top-1 entry in
+    retrieval) chooses the entry of the mention it names (the one holding ``pointed``, else the
+    first that may take that entry) when that entry is allowed for it (same class, parked only
+    when said); it is the spec as it stands only when the caption names nothing at all."""
+    if res.finder is None or res.names is None:
+        raise RuntimeError("the mention layer needs retrieval (embedder and WordNet)")
+    found = res.finder.find(caption)
+    grounded = ground_mentions(caption, found, res.kb, res.names)
+    absent = [MentionResult(text=f.text, status=f.status, source=f.source, label=f.word_class)
+              for f in found if f.status != "present"]
+    if not grounded:
+        return replace(answer, mentions=[_result(answer.phrase or caption, answer_source, Numbers.of(answer_entry)),
+                                         *absent])
+    allowed = [k for k, g in enumerate(grounded) if answer_entry.id in g.pool]
+    named = [k for k in allowed if pointed and pointed in grounded[k].found.text.split()]
+    target = (named or allowed or [-1])[0]
+    options = [g.numbers for g in grounded]
+    sources: list[str] = [g.found.source for g in grounded]
+    order = list(range(len(grounded)))
+    if target >= 0:
+        options[target] = Numbers.of(answer_entry)
+        sources[target] = answer_source
+        order = [target, *[k for k in order if k != target]]  # the mode's answer wins a tie
+    best = order[most_careful([options[k] for k in order])]
+    results = [_result(g.found.text, sources[k], options[k]) for k, g in enumerate(grounded)] + absent
+    n = options[best]
+    evidence = [(n.kb_id, 1.0)] if n.kb_id else []
+    evidence += [(kb_id, score) for kb_id, score in answer.evidence if kb_id != n.kb_id]
+    return replace(answer, is_dynamic=n.is_dynamic, z_min=n.z_min, buffer_m=n.buffer_m, label=n.label,
+                   evidence=evidence, mentions=results)
 
 
 class PaperAnswer(BaseModel):
@@ -64,10 +111,11 @@ def _embed_name(res: Resources) -> str:
     return res.embed.model_name if res.embed is not None else ""
 
 
-def run_retrieval(caption: str, res: Resources) -> Outcome:
+def run_retrieval(caption: str, res: Resources, every_mention: bool = True) -> Outcome:
     hits = _retrieve(caption, res)
     evidence = [(entry.id, score) for entry, score in hits]
-    return Outcome.from_entry(hits[0][0], _embed_name(res), evidence, retrieval_top1=hits[0][0].id)
+    answer = Outcome.from_entry(hits[0][0], _embed_name(res), evidence, retrieval_top1=hits[0][0].id)
+    return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res) if every_mention else answer
 
 
 def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -> Outcome:
@@ -86,7 +134,9 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
     )
 
 
-def run_rag(caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm") -> Outcome:
+def run_rag(
+    caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm", every_mention: bool = True
+) -> Outcome:
     """LLM-Land. ``pointer="first_word"`` is the no-LLM ablation: the mention simply starts
     at the caption's first content word."""
     if res.names is None:
@@ -112,4 +162,7 @@ def run_rag(caption: str, res: Resources, context_in_prompt: bool, pointer: str 
     chosen = ground(mention.window, hits, res.names)
     evidence = [(entry.id, round(score, 4)) for entry, score in chosen.ranked]
     model = f"{name}+{_embed_name(res)}"
-    return Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)
+    answer = Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)
+    if not every_mention:
+        return answer
+    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word)

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from .llm import plain
+
 _IM = "<|im_start|>{role}\n{text}<|im_end|>\n"
 
 
@@ -66,7 +68,8 @@ def paper_prefix() -> str:
 
 
 def paper_suffix(caption: str) -> str:
-    return f" {caption}<|im_end|>\n<|im_start|>assistant\n{_PAPER_ANSWER}"
+    """The caption is untrusted: it is tokenised as plain text (:func:`~.llm.plain`)."""
+    return f"{plain(' ' + caption)}<|im_end|>\n<|im_start|>assistant\n{_PAPER_ANSWER}"
 
 
 # ------------------------------------------------------------- rag mode (obstacle extraction)
@@ -96,7 +99,7 @@ _RAG_ANSWER = '{"obstacle": "'
 
 def _rag_user(caption: str, labels: Sequence[str] | None) -> str:
     context = f"Context: [{' | '.join(labels)}]\n" if labels is not None else ""
-    return f"{context}Caption: {caption}"
+    return f"{context}Caption:{plain(' ' + caption)}"
 
 
 def rag_prefix(with_context: bool = False) -> str:
@@ -111,5 +114,5 @@ def rag_prefix(with_context: bool = False) -> str:
 
 def rag_suffix(caption: str, labels: Sequence[str] | None = None) -> str:
     """The variable part; ``labels`` (the retrieved KB labels) only after a context prefix."""
-    user = _rag_user(caption, labels) if labels is not None else f" {caption}"
+    user = _rag_user(caption, labels) if labels is not None else plain(f" {caption}")
     return f"{user}<|im_end|>\n<|im_start|>assistant\n{_RAG_ANSWER}"

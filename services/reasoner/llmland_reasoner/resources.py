@@ -15,8 +15,10 @@ from pathlib import Path
 from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline, load_sentence_model
 from .grounding import NameIndex
 from .kb import KbEntry, KnowledgeBase
+from .lexicon import WordNet
 from .llm import LlamaCppBackend, LlmBackend
 from .llm_worker import WorkerLlmBackend
+from .mentions import MentionFinder
 from .retrieval import Retriever
 from .settings import ReasonerSettings
 
@@ -43,6 +45,8 @@ class Resources:
     embed: LocalSentenceEmbedding | None = None
     retriever: Retriever | None = None
     names: NameIndex | None = None
+    wordnet: WordNet | None = None
+    finder: MentionFinder | None = None
     backend: LlmBackend | None = None
     load_s: dict[str, float] = field(default_factory=dict)
 
@@ -57,6 +61,9 @@ class Resources:
             model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads)
             res.embed = LocalSentenceEmbedding(model, model_name=name)
             res.load_s["embedder"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            res.wordnet = WordNet(settings.wordnet_dir)
+            res.load_s["wordnet"] = time.perf_counter() - t0
             res.rebuild_retriever()
         if llm:
             t0 = time.perf_counter()
@@ -74,6 +81,8 @@ class Resources:
         self.retriever = Retriever(self.kb, self.embed, index_dir=self.settings.index_dir, top_k=self.settings.top_k)
         self.names = NameIndex(self.embed.get_text_embedding_batch)
         self.names.warm(self.kb.entries)
+        if self.wordnet is not None:
+            self.finder = MentionFinder(self.kb, self.wordnet)
         self.load_s["index"] = time.perf_counter() - t0
 
     def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:

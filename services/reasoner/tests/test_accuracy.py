@@ -49,3 +49,28 @@ def test_baselines_are_reported(resources: Resources, record_property: Callable[
         record_property(name, report.model_dump(exclude={"misses"}))
         print(_summary(report, name))
         assert 0.0 <= report.acc_both <= 1.0
+
+
+def test_public_set_is_sourced_and_covers_every_class() -> None:
+    cases = load_cases("public")
+    assert len(cases) >= 150
+    assert all(c.source.startswith("github:") and c.split in ("dev", "eval", "heldout") for c in cases)
+    assert {c.kind for c in cases} == {"person", "animal", "vehicle", "static", "ground"}
+    own = {c.caption.lower() for c in load_cases("dev") + load_cases("eval")}
+    assert not own & {c.caption.lower() for c in cases}  # apart from the project's own sets
+
+
+def test_public_held_out_split_never_unsafe(
+    resources: Resources, record_property: Callable[[str, object], None]
+) -> None:
+    """Captions real captioners and people wrote: never a moving thing made static or given a
+    smaller buffer than its class; accuracy floors at the measured figures (README)."""
+    rag = evaluate("rag", "public:heldout", resources=resources)
+    retrieval = evaluate("retrieval", "public", resources=resources)
+    for name, report in (("rag public:heldout", rag), ("retrieval public", retrieval)):
+        record_property(name, report.model_dump(exclude={"misses"}))
+        print(_summary(report, name), "unsafe", report.unsafe, report.per_class)
+        assert report.unsafe == 0, [m for m in report.misses if m["unsafe"]]
+        assert report.fallbacks == 0
+    assert rag.acc_both >= 0.90 and rag.per_class["person"]["acc"] >= 0.90, rag.misses
+    assert retrieval.acc_both >= 0.92 and retrieval.per_class["person"]["acc"] >= 0.97, retrieval.misses

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import socket
+import struct
 import threading
 import time
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -12,14 +14,18 @@ import httpx
 import pytest
 import schemathesis
 import uvicorn
+from fastapi import HTTPException
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from llmland_reasoner.engine import ReasonerEngine
 from llmland_reasoner.http_api import create_app
 from llmland_reasoner.resources import Resources
 from llmland_reasoner.settings import ReasonerSettings
+from llmland_reasoner.upload import check_image, image_size
 from llmland_schemas import Caption
 from PIL import Image
 from pydantic import SecretStr
+from schemathesis import GenerationMode
 
 CAPTION = Caption(text="a person walking on a grass field", backend="test", latency_ms=12.0)
 
@@ -102,6 +108,82 @@ def test_reason_malformed_json(base_url: str) -> None:
     assert r.status_code == 422
 
 
+@pytest.mark.parametrize(
+    "body",
+    [b'{"caption": "a man \\ud800 walking"}', b'{"caption": "a man \\udfff"}', b'{"caption": "a \xff\xfe man"}',
+     b"\xff\xd8\xff\xe0garbage", b'{"caption": "\\ud83d"}'],
+)
+def test_reason_refuses_bodies_that_are_not_unicode_json_with_422(base_url: str, body: bytes) -> None:
+    """Lone surrogates and undecodable bytes (a 500 before: the error handler could not encode them)."""
+    r = httpx.post(f"{base_url}/v1/reason", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"]
+
+
+def test_oversized_json_is_413_before_parsing(base_url: str) -> None:
+    body = b'{"caption": "' + b"a" * 200_000 + b'"}'
+    r = httpx.post(f"{base_url}/v1/reason", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 413 and r.json()["detail"]
+
+
+def test_kb_write_with_a_surrogate_is_422(base_url: str) -> None:
+    body = b'{"id": "x", "label": "\\ud800", "category": "structure", "is_dynamic": false, "is_human": false,' \
+           b' "z_min": 1, "buffer_m": 1, "description": "x"}'
+    r = httpx.post(f"{base_url}/v1/kb", content=body, headers={"content-type": "application/json"})
+    assert r.status_code == 422 and r.json()["detail"]
+
+
+def test_reason_refuses_images_and_forms_with_415(base_url: str, tmp_path: Path) -> None:
+    """A multipart form or a raw PNG sent to the caption route (a 500 before)."""
+    png = _png(tmp_path)
+    r = httpx.post(f"{base_url}/v1/reason", files={"image": ("a.png", png, "image/png")})
+    assert r.status_code == 415 and "multipart/form-data" in r.json()["detail"]
+    r = httpx.post(f"{base_url}/v1/reason", content=png, headers={"content-type": "image/png"})
+    assert r.status_code == 415
+    r = httpx.post(f"{base_url}/v1/reason", content=png, headers={"content-type": "application/json"})
+    assert r.status_code == 422
+
+
+def _png_claiming(width: int, height: int, tmp: Path) -> bytes:
+    """A small valid PNG whose IHDR claims ``width`` x ``height`` pixels (CRC fixed)."""
+    data = bytearray(_png(tmp, 8))
+    data[16:24] = struct.pack(">II", width, height)
+    data[29:33] = struct.pack(">I", zlib.crc32(bytes(data[12:29])))
+    return bytes(data)
+
+
+def _jpeg_claiming(width: int, height: int) -> bytes:
+    app0 = b"\xff\xe0" + struct.pack(">H", 16) + b"JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00"
+    sof0 = b"\xff\xc0" + struct.pack(">HBHHB", 11, 8, height, width, 1) + b"\x01\x11\x00"
+    return b"\xff\xd8" + app0 + sof0 + b"\xff\xd9"
+
+
+@pytest.mark.parametrize("side", [5000, 15000, 30000])
+def test_spec_refuses_too_many_pixels_from_the_header_with_413(base_url: str, tmp_path: Path, side: int) -> None:
+    """15000^2 and 30000^2 were 500s (Pillow's DecompressionBombError inside Image.open)."""
+    for data in (_png_claiming(side, side, tmp_path), _jpeg_claiming(side, side)):
+        assert image_size(data) == (side, side)
+        r = httpx.post(f"{base_url}/v1/spec", files={"image": ("x", data, "application/octet-stream")})
+        assert r.status_code == 413 and "too large" in r.json()["detail"], r.text
+
+
+def test_a_real_decompression_bomb_is_413(base_url: str, tmp_path: Path) -> None:
+    path = tmp_path / "bomb.png"
+    Image.new("1", (20_000, 20_000)).save(path, optimize=True)  # 400 Mpx of zeros in a few tens of kB
+    data = path.read_bytes()
+    assert len(data) < 64 * 1024
+    r = httpx.post(f"{base_url}/v1/spec", files={"image": ("bomb.png", data, "image/png")})
+    assert r.status_code == 413, r.text
+
+
+def test_pillows_own_bomb_check_is_caught_too(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Second line: an image the header check lets through but Pillow refuses is a 413, not a 500."""
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 10)
+    with pytest.raises(HTTPException) as err:
+        check_image(_png(tmp_path, 32), max_bytes=1 << 20)
+    assert err.value.status_code == 413
+
+
 def test_spec_from_image(base_url: str, tmp_path: Path) -> None:
     r = httpx.post(f"{base_url}/v1/spec", files={"image": ("a.png", _png(tmp_path), "image/png")}, timeout=60)
     assert r.status_code == 200, r.text
@@ -140,6 +222,12 @@ def test_kb_read_write_validated_and_persisted(base_url: str, engine: ReasonerEn
     bad = dict(entry, buffer_m=-3)
     r = httpx.post(f"{base_url}/v1/kb", json=bad)
     assert r.status_code == 422 and "buffer_m" in r.text
+    for unsafe, reason in (({"category": "person", "is_human": False, "is_dynamic": False, "buffer_m": 0.0},
+                            "is_human true"),
+                           ({"id": "dog", "label": "dog", "category": "animal", "is_dynamic": False, "buffer_m": 0.0},
+                            "is_dynamic must be true")):
+        r = httpx.post(f"{base_url}/v1/kb", json=dict(entry, **unsafe))
+        assert r.status_code == 422 and reason in r.json()["detail"], r.text
     assert httpx.get(f"{base_url}/v1/kb").json()["version"] == after["version"]  # nothing written
 
 
@@ -151,14 +239,18 @@ def test_api_token(engine: ReasonerEngine) -> None:
         assert httpx.get(f"{url}/v1/kb", headers={"Authorization": "Bearer s3cret"}).status_code == 200
 
 
-def test_fuzz_openapi_finds_no_server_errors(base_url: str) -> None:
-    """Schemathesis cases from the served OpenAPI schema, every operation: never a 5xx."""
+@pytest.mark.parametrize("mode", [GenerationMode.POSITIVE, GenerationMode.NEGATIVE])
+def test_fuzz_openapi_finds_no_server_errors(base_url: str, mode: GenerationMode) -> None:
+    """Schemathesis cases from the served OpenAPI schema, every operation, valid and invalid
+    (negative mode: bodies that break the schema): never a 5xx."""
     schema = schemathesis.openapi.from_url(f"{base_url}/openapi.json")
     operations = [result.ok() for result in schema.get_all_operations()]
     assert {op.path for op in operations} >= {"/v1/reason", "/v1/spec", "/v1/kb", "/healthz"}
     for op in operations:
+        if mode == GenerationMode.NEGATIVE and op.method.upper() != "POST":
+            continue  # nothing to break in a GET without parameters
 
-        @given(case=op.as_strategy())
+        @given(case=op.as_strategy(generation_mode=mode))
         @settings(max_examples=15, deadline=None, suppress_health_check=list(HealthCheck), database=None)
         def check(case) -> None:  # type: ignore[no-untyped-def]
             response = case.call(base_url=base_url, timeout=60)
@@ -166,3 +258,26 @@ def test_fuzz_openapi_finds_no_server_errors(base_url: str) -> None:
             assert response.status_code < 500, detail
 
         check()
+
+
+_JSON_PIECES = st.sampled_from(["\\ud800", "\\udfff", "\\u0000", '\\"', "\\\\", '"', "{", "}", "[", ",", ":",
+                                "\\x", "caption", "mode", "rag", "null", "1e999"])
+_MALFORMED_JSON = st.lists(st.one_of(_JSON_PIECES, st.text(max_size=6)), max_size=12).map(
+    lambda parts: ('{"caption": "' + "".join(parts)).encode("utf-8", "surrogatepass"))
+_CONTENT_TYPES = st.sampled_from(["application/json", "multipart/form-data; boundary=x", "image/png", "text/plain",
+                                  "application/octet-stream", "application/x-www-form-urlencoded", ""])
+
+
+def test_fuzz_binary_and_malformed_bodies_find_no_server_errors(base_url: str) -> None:
+    """Beyond the schema: random bytes and broken JSON under every content type, on every POST route."""
+
+    @given(path=st.sampled_from(["/v1/reason", "/v1/kb", "/v1/spec"]), ctype=_CONTENT_TYPES,
+           body=st.one_of(st.binary(max_size=512), _MALFORMED_JSON))
+    @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck), database=None)
+    def check(path: str, ctype: str, body: bytes) -> None:
+        headers = {"content-type": ctype} if ctype else {}
+        response = httpx.post(f"{base_url}{path}", content=body, headers=headers, timeout=60)
+        assert response.status_code < 500, f"{path} {ctype} {body[:80]!r}: {response.status_code} {response.text[:200]}"
+        response.json()  # always a JSON error body
+
+    check()

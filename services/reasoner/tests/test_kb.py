@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 import pytest
-from llmland_reasoner.kb import KbEntry, KnowledgeBase, default_kb_path
+from llmland_reasoner.kb import KbEntry, KnowledgeBase, category_problems, default_kb_path
 from pydantic import ValidationError
 
 
@@ -84,3 +84,30 @@ def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path, robot_mower
 def test_default_path_is_inside_the_package() -> None:
     assert default_kb_path().is_file()
     assert default_kb_path().parent.name == "kb"
+
+
+@pytest.mark.parametrize(
+    ("change", "reason"),
+    [
+        ({"category": "person", "is_human": False, "is_dynamic": True, "buffer_m": 3.0}, "is_human true"),
+        ({"category": "person", "is_human": True, "is_dynamic": False, "buffer_m": 3.0}, "is_dynamic must be true"),
+        ({"category": "person", "is_human": True, "is_dynamic": True, "buffer_m": 2.0}, "buffer_m >= 3.0"),
+        ({"category": "animal", "is_dynamic": False, "buffer_m": 0.0}, "is_dynamic must be true"),
+        ({"category": "animal", "is_dynamic": True, "buffer_m": 3.0}, "buffer_m >= 4.0"),
+        ({"category": "vehicle", "is_dynamic": False, "buffer_m": 1.0}, "buffer_m >= 5.0"),  # parked ones too
+        ({"category": "lookalike", "is_human": True, "is_dynamic": True, "buffer_m": 3.0}, "only category person"),
+    ],
+)
+def test_category_rules_refuse_unsafe_entries_and_say_why(
+    change: dict[str, object], reason: str, robot_mower: dict[str, object]
+) -> None:
+    """The issue's cases: a non-human static 0 m "person", a static 0 m "dog" (each failed before)."""
+    with pytest.raises(ValidationError, match=reason):
+        KbEntry.model_validate({**robot_mower, **change})
+
+
+def test_every_shipped_entry_meets_its_category_minimum() -> None:
+    for entry in KnowledgeBase.load().entries:
+        assert category_problems(entry) == [], entry.id
+        if entry.category in ("person", "animal"):
+            assert entry.is_dynamic and entry.is_human == (entry.category == "person")

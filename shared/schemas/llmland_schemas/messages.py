@@ -186,6 +186,25 @@ class Evidence(Strict):
 SpecSource = Literal["rag", "llm", "retrieval", "fallback", "given", "oracle"]
 
 
+class MentionResult(Strict):
+    """One obstacle mention in a caption and what it was grounded in (the reasoner's safety layer).
+
+    ``status`` says whether the caption has the thing there (``present``) or says it is not
+    (``negated``: "no people"; ``depicted``: "a statue of a man"); only present mentions carry
+    spec fields. ``source``: a KB name, a WordNet hypernym, an unknown word (careful), or the
+    answer of the LLM (rag) or of retrieval alone.
+    """
+
+    text: str
+    status: Literal["present", "negated", "depicted"] = "present"
+    source: Literal["kb", "wordnet", "unknown", "llm", "retrieval"] = "kb"
+    label: str = "unknown"
+    kb_id: str = ""
+    is_dynamic: bool | None = None
+    z_min: NonNegFloat | None = None
+    buffer_m: NonNegFloat | None = None
+
+
 class SafetySpec(Strict):
     """The paper's two fields plus what a planner and an operator need."""
 
@@ -200,6 +219,8 @@ class SafetySpec(Strict):
     latency_ms: NonNegFloat = 0.0
     #: why this spec is a fallback (model error, timeout, worker down ...); empty otherwise
     reason: str = ""
+    #: every obstacle mention the reasoner found; the spec is the most careful present one
+    mentions: list[MentionResult] = []
 
     @classmethod
     def conservative(cls, caption: str = "", *, model: str = "", latency_ms: float = 0.0,

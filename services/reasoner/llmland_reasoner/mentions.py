@@ -1,0 +1,285 @@
+"""Every obstacle mention in a caption (the safety layer's input; no model involved).
+
+The caption is read as plain words: nothing in it is an instruction. A *mention* is a noun
+phrase head that names a thing: a KB name (label or synonym, longest match, plurals folded
+by WordNet's lemmatiser), else a WordNet noun (class from its hypernyms, ``lexicon.py``),
+else an unknown word in a noun's position ("a quokka on a rock"), which is classed careful.
+
+A mention is ``present`` unless the caption says, unambiguously, that it is not there:
+- ``negated``: right after "no"/"without" ("no people or cars in the street"); "not" and
+  anything looser never lower a class;
+- ``depicted``: the complement of a depiction ("a statue *of a woman*", "a painting of a
+  horse") or the modifier of one ("a dog statue"). "A photo/picture/image/view of ..." is the
+  camera's own picture, so what follows it is present.
+Nouns that only qualify the next noun ("aerial view", "tennis court", "cricket player", "bus
+stop" as a WordNet compound) are not mentions, except KB names of people, animals and vehicles
+("dog park", "police horse"), which are kept (careful).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from .kb import KbEntry, KnowledgeBase
+from .lexicon import WordNet
+
+Status = Literal["present", "negated", "depicted"]
+Source = Literal["kb", "wordnet", "unknown"]
+
+#: The longest KB name, in words.
+MAX_NAME_WORDS = 4
+#: How many words may stand between a negator and the noun it negates ("no other people").
+NEGATION_REACH = 3
+NEGATORS = frozenset({"no", "without"})
+COORDINATORS = frozenset({"or", "nor"})
+#: Words between a negator and a noun that end the negation ("no one but a man", "no, a dog").
+NEGATION_STOP = frozenset({"one", "body", "but", "except", "besides", "apart", "only", "just", "save", ",", ";"})
+DETERMINERS = frozenset(
+    "a an the this that these those some many several few two three four five six seven eight nine ten "
+    "dozens lots lot numerous various one another each every other".split()
+)
+#: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
+FUNCTION_WORDS = frozenset(
+    "a an the of on in at to by with and or nor is are was were be been being there here that this these those "
+    "its it his her their them they he she we you i my our your some near next over under behind along across "
+    "through into onto from for while as up down out off around above below beside between beneath inside "
+    "outside toward towards against upon among amongst via per than then also very too no not without "
+    "has have had do does did can could will would may might must shall should who whom whose which what "
+    "where when why how all both each every any few many much more most other such only own same so just "
+    "away back together front top side middle left right far close".split()
+)
+#: Nouns that count what follows "of" ("a couple of playgrounds", "lots of cars"): not mentions.
+QUANTIFIERS = frozenset(
+    "couple pair lot lots number bunch dozen dozens handful set series row rows line lines kind kinds sort "
+    "sorts variety plenty piece pieces part parts rest majority".split()
+)
+#: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
+PARKED = frozenset({"parked", "docked", "moored"})
+#: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
+#: never read as depictions ("a billboard with a picture of a car" keeps the car: ambiguous,
+#: so careful).
+IMAGE_NOUNS = frozenset(
+    "photo photograph picture image pic view shot snapshot closeup close-up scene screenshot frame "
+    "aerial overhead".split()
+)
+#: Words that end the complement of a depiction ("a statue of a man on a horse | , children
+#: playing nearby"): anything that may start a new, real thing ends it.
+COMPLEMENT_BOUNDARY = frozenset(
+    ", ; and while with next near beside behind by front among around surrounded full filled crowded "
+    "is are was were which who that where as while".split()
+)
+#: Modifiers that make the next noun a depiction ("a toy car", "an inflatable dinosaur").
+DEPICTION_MODIFIERS = frozenset(
+    "toy inflatable stuffed plush cardboard plastic fake model stone bronze marble wooden concrete metal "
+    "ceramic porcelain paper cartoon animated painted sculpted carved".split()
+)
+#: Flat things that show pictures: "a dog on a poster" is a picture of a dog.
+DISPLAY_NOUNS = frozenset(
+    "poster billboard mural painting sign banner screen television tv advert advertisement graffiti "
+    "drawing".split()
+)
+_TOKEN = re.compile(r"[a-z0-9]+(?:[-'][a-z0-9]+)*|[,;]")
+_LIVING_OR_VEHICLE = frozenset({"person", "animal", "vehicle"})
+
+
+def tokenize(caption: str) -> list[str]:
+    """Lower-case words; possessives folded ("people's" → "people")."""
+    return [t.removesuffix("'s") for t in _TOKEN.findall(caption.lower())]
+
+
+@dataclass(frozen=True)
+class Found:
+    """One mention: a word span, what names it and whether it is there."""
+
+    start: int
+    end: int  # exclusive
+    text: str
+    word_class: str  # a KB category, a WordNet class, or "unknown"
+    source: Source
+    kb_id: str | None = None
+    status: Status = "present"
+
+
+class MentionFinder:
+    """Finds the mentions of a caption against one KB version and WordNet."""
+
+    def __init__(self, kb: KnowledgeBase, wordnet: WordNet) -> None:
+        self.kb = kb
+        self.wordnet = wordnet
+        self._surface: dict[tuple[str, ...], KbEntry] = {}
+        self._lemmas: dict[tuple[str, ...], KbEntry] = {}
+        for entry in kb.entries:
+            for name in [entry.label, *entry.synonyms]:
+                words = tuple(tokenize(name))
+                if words:
+                    self._surface.setdefault(words, entry)
+                    self._lemmas.setdefault(self._lemma_key(words), entry)
+
+    def _lemma_key(self, words: Sequence[str]) -> tuple[str, ...]:
+        return (*words[:-1], self.wordnet.lemma(words[-1]))
+
+    # ------------------------------------------------------------------ lexical units
+    def _kb_match(self, words: Sequence[str], i: int) -> tuple[int, KbEntry] | None:
+        for n in range(min(MAX_NAME_WORDS, len(words) - i), 0, -1):
+            span = tuple(words[i : i + n])
+            entry = self._surface.get(span) or self._lemmas.get(self._lemma_key(span))
+            if entry is not None:
+                return n, entry
+        return None
+
+    def _is_wn_noun(self, words: Sequence[str], i: int) -> bool:
+        word = words[i]
+        if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha() or len(word) < 3:
+            return False
+        if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
+            return False  # "walking", "parked": verbs and participles, unless "a crossing"
+        if self._verb_here(words, i):
+            return False  # "the river passes", "a man surfs": verbs, unless "a pass"
+        if self.wordnet.is_adjective(word):
+            return False  # "lush plants", "a black and white dog", "a young man": adjectives, not nouns
+        return self.wordnet.noun_class(self.wordnet.lemma(word)) is not None
+
+    def _verb_here(self, words: Sequence[str], i: int) -> bool:
+        """A word used mostly as a verb, right after a noun: "a player swings", "a man surfs"."""
+        if i == 0 or not self.wordnet.mostly_verb(words[i]):
+            return False
+        prev = words[i - 1]
+        if prev in FUNCTION_WORDS or prev in DETERMINERS or not prev.isalpha():
+            return False
+        return self._kb_match(words, i - 1) is not None or (
+            self.wordnet.is_noun(self.wordnet.lemma(prev)) and not self.wordnet.is_adjective(prev))
+
+    def _unit(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
+        """The lexical unit starting at ``i``: (length, class, source, kb id), or None."""
+        if words[i] in IMAGE_NOUNS:
+            return None
+        kb = self._kb_match(words, i)
+        if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
+            return None
+        compound = self._compound(words, i)
+        if kb is not None and kb[0] == 1 and kb[1].category not in _LIVING_OR_VEHICLE and self._verb_here(words, i):
+            kb = None  # "a player swings": a verb, though "swing" is a KB name
+        if kb is not None and (compound is None or compound[0] <= kb[0] or kb[1].category not in _LIVING_OR_VEHICLE):
+            n, entry = kb
+            return n, entry.category, "kb", entry.id
+        if compound is not None:
+            return compound[0], compound[1], "wordnet", None
+        if self._is_wn_noun(words, i):
+            cls = self.wordnet.noun_class(self.wordnet.lemma(words[i])) or "abstract"
+            if i + 1 < len(words) and words[i + 1] in PARKED:
+                cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
+            return 1, cls, "wordnet", None
+        return None
+
+    def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
+        """A WordNet two-word noun ("bus stop", "car park") that names a physical thing."""
+        if i + 1 >= len(words) or words[i] in FUNCTION_WORDS or words[i + 1] in FUNCTION_WORDS:
+            return None
+        cls = self.wordnet.noun_class(f"{words[i]} {self.wordnet.lemma(words[i + 1])}")
+        if cls is None or cls == "abstract":  # "horse race", "car crash": events keep their nouns
+            return None
+        return 2, cls
+
+    def _is_unknown_head(self, words: Sequence[str], i: int) -> bool:
+        word = words[i]
+        if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha() or len(word) < 3:
+            return False
+        if word.endswith(("ing", "ed", "ly")) or self.wordnet.is_known(word):
+            return False
+        return i > 0 and words[i - 1] in DETERMINERS
+
+    # ------------------------------------------------------------------ mentions
+    def find(self, caption: str) -> list[Found]:
+        words = tokenize(caption)
+        units: list[Found] = []
+        i = 0
+        while i < len(words):
+            unit = self._unit(words, i)
+            if unit is not None:
+                n, cls, source, kb_id = unit
+                units.append(Found(i, i + n, " ".join(words[i : i + n]), cls, source, kb_id))
+                i += n
+            elif self._is_unknown_head(words, i):
+                units.append(Found(i, i + 1, words[i], "unknown", "unknown"))
+                i += 1
+            else:
+                i += 1
+        mentions = self._heads(units)
+        mentions = self._mark_depicted(words, mentions)
+        mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
+        return self._mark_negated(words, mentions)
+
+    def _heads(self, units: list[Found]) -> list[Found]:
+        """Drop units that only qualify the next noun, keeping people, animals and vehicles."""
+        kept: list[Found] = []
+        for k, unit in enumerate(units):
+            nxt = units[k + 1] if k + 1 < len(units) else None
+            if nxt is not None and nxt.start == unit.end and nxt.word_class != "abstract":
+                if nxt.word_class == "lookalike" and unit.word_class in _LIVING_OR_VEHICLE \
+                        and not self.wordnet.is_verb(nxt.text):
+                    kept.append(_with(unit, "depicted"))  # "a dog statue"
+                    continue
+                if nxt.word_class in _LIVING_OR_VEHICLE and unit.text in DEPICTION_MODIFIERS:
+                    continue  # "inflatable dinosaur": the pair becomes one depiction below
+                if unit.word_class not in _LIVING_OR_VEHICLE or (
+                        unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown")):
+                    continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
+            if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:
+                continue  # "arafed man": an unknown word before a noun qualifies it
+            if unit.word_class == "abstract":
+                continue
+            kept.append(unit)
+        return kept
+
+    def _mark_depiction_modifiers(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """"a toy car", "an inflatable dinosaur"; "a dog on a poster", "a man in a painting"."""
+        out: list[Found] = []
+        for m in mentions:
+            before = words[m.start - 1] if m.start > 0 else ""
+            on_display = m.end + 1 < len(words) and words[m.end] in ("on", "in") and any(
+                w in DISPLAY_NOUNS for w in words[m.end + 1 : m.end + 3])
+            if m.status == "present" and m.word_class in _LIVING_OR_VEHICLE and (
+                    before in DEPICTION_MODIFIERS or on_display):
+                out.append(_with(m, "depicted"))
+                if before in DEPICTION_MODIFIERS:  # the toy, the inflatable itself is there
+                    m = Found(m.start - 1, m.end, f"{before} {m.text}", "lookalike", m.source)
+                else:
+                    continue
+            out.append(m)
+        return out
+
+    def _mark_depicted(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        out = list(mentions)
+        for m in mentions:
+            if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words) or words[m.end] != "of":
+                continue
+            stop = next((j for j in range(m.end + 1, len(words)) if words[j] in COMPLEMENT_BOUNDARY), len(words))
+            out = [_with(x, "depicted") if m.end < x.start < stop and x.status == "present" else x for x in out]
+        return out
+
+    def _mark_negated(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        out = list(mentions)
+        for p, word in enumerate(words):
+            if word not in NEGATORS:
+                continue
+            k = next((k for k, m in enumerate(out) if m.start > p), None)
+            between = words[p + 1 : out[k].start] if k is not None else []
+            if k is None or out[k].start - p > NEGATION_REACH or NEGATION_STOP.intersection(between):
+                continue  # too far, or "no one but a man": the negation is not about that mention
+            while True:
+                out[k] = _with(out[k], "negated")
+                after = out[k].end
+                if k + 1 < len(out) and after < len(words) and words[after] in COORDINATORS \
+                        and out[k + 1].start - after <= 2:
+                    k += 1
+                    continue
+                break
+        return out
+
+
+def _with(found: Found, status: Status) -> Found:
+    return Found(found.start, found.end, found.text, found.word_class, found.source, found.kb_id, status)
+
