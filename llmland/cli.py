@@ -32,7 +32,8 @@ def _config(args: argparse.Namespace) -> StackConfig:
 
 def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | None = None) -> MissionGoal:
     return make_mission(cfg, world=args.world, seed=seed, timeout_s=args.timeout, drone_id=args.drone_id,
-                        clock=args.clock, n_pedestrians=args.pedestrians, latency_model=args.latency_model, rrd=rrd)
+                        clock=args.clock, n_pedestrians=args.pedestrians, latency_model=args.latency_model, rrd=rrd,
+                        scenario=args.scenario)
 
 
 def summary_line(r: EpisodeResult) -> str:
@@ -167,6 +168,9 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
                    help="lockstep: when specs take effect — measured (default for the pipeline), fixed:<ms>, "
                         "normal:<mean_ms>,<sd_ms> (fixed:50 for oracle specs)")
     p.add_argument("--llm-model", default=None, help="a GGUF file for the reasoner (default: SmolLM2-135M)")
+    p.add_argument("--scenario", default=None,
+                   help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
+                        "final descent starts)")
     p.add_argument("--drone-id", default="d0")
     p.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
 

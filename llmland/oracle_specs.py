@@ -37,8 +37,8 @@ log = logging.getLogger(__name__)
 
 
 def _spec(label: str, dynamic: bool, z_min: float, buffer_m: float) -> SafetySpec:
-    return SafetySpec(is_dynamic=dynamic, z_min=z_min, buffer_m=buffer_m, label=label, source="given",
-                      model="ground-truth")
+    return SafetySpec(is_dynamic=dynamic, is_human=label == "person", z_min=z_min, buffer_m=buffer_m, label=label,
+                      source="given", model="ground-truth")
 
 
 #: Paper defaults: pedestrians 3 m, vehicles 5 m; static things a small buffer.

@@ -68,7 +68,7 @@ class StackConfig:
 
 def make_mission(cfg: StackConfig, *, world: str, seed: int, timeout_s: float, drone_id: str = "d0",
                  clock: str = "lockstep", n_pedestrians: int | None = None, latency_model: str | None = None,
-                 rrd: str | None = None) -> MissionGoal:
+                 rrd: str | None = None, scenario: str | None = None) -> MissionGoal:
     """The MissionGoal for one episode of ``cfg``'s method."""
     return MissionGoal(
         drone_id=drone_id,
@@ -82,6 +82,7 @@ def make_mission(cfg: StackConfig, *, world: str, seed: int, timeout_s: float, d
         rrd_path=rrd,
         perception=cfg.perception,
         latency_model=latency_model or cfg.default_latency_model(),
+        scenario=scenario,
     )
 
 

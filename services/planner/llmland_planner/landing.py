@@ -1,120 +1,104 @@
-"""Landing logic: approach above the unsafe regions, descend only onto a disc that stays clear.
+"""Landing logic: approach above everyone's reach, then one fast committed descent when provably safe.
 
-Phases:
+Two layers (DESIGN §6):
 
-- ``approach`` — fly (searched path, corridors, MPC) to the hover point above the target
-  at ``cruise_altitude_m``, raised above the ``z_min`` of any region covering it;
-- ``hold`` — hover there and turn on the spot (``scan_yaw_rate_rps``) so the forward-down
-  camera looks all around; descend only once the scan has swept ``scan_sweep_rad`` since
-  the hold began and the landing disc has been *reach-clear* for ``hold_clear_s``;
-- ``descend`` — down along :func:`descent_profile` (fast high up, slow near the ground)
-  while the disc stays reach-clear; otherwise back up to the hover point (``hold``). Below
-  ``commit_height_m`` the descent is finished: touching down takes less time than climbing
-  out of a person's reach would;
-- ``touchdown`` — low and slow: thrust off.
+- the **hard limit** — no person ever within 1 m — is kept by the reachable-set gate of
+  :mod:`.hard_limit`: the vehicle stays above :data:`~.hard_limit.REACH_CEILING_M` (head height
+  plus 1 m) except in the final descent, and starts that descent only when every possible
+  person, tracked or not, is provably farther than 1 m from the landing point until touchdown
+  is complete. The gate is re-checked every tick of the descent: if a reachable set is about to
+  touch (an assumption failed: someone faster than assumed, a missed detection), the vehicle
+  climbs out while it is higher than ``commit_height_m``; below, finishing is the quicker way
+  out of reach;
+- the **semantic keep-out** (the specs' buffers, with predicted motion) shapes the path and the
+  hover point (:meth:`~.world_model.WorldModel.regions`), and the landing disc must stay clear
+  of moving things' predicted buffers and still things' footprints during the descent
+  (:meth:`~.world_model.WorldModel.landing_regions`).
 
-*Reach-clear*: the disc is clear of every unsafe region, with each dynamic region grown by
-``reach_speed_mps`` × the time the descent still needs. A person out of view (the camera
-barely sees the horizon once the drone is low) can walk that far before the drone is down,
-so a descent only starts when nobody known can reach the disc before touchdown.
+Phases: ``approach`` (climb to cruise altitude first, then fly to the hover point above the
+target), ``hold`` (hover there until the gate opens), ``descend`` (the profile of
+:mod:`.descent`), ``climb-out`` (back up to the hover point), ``touchdown`` (thrust off).
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 import numpy as np
 
+from .descent import DescentProfile
 from .dynamics import FloatArray
+from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
 from .regions import UnsafeRegion
 from .settings import PlannerSettings
+
+#: arrived at a hover point: within this height (m) of it and slower than this (m/s)
+ARRIVE_HEIGHT_TOL_M = 0.3
+ARRIVE_SPEED_MPS = 0.5
+#: hover points keep this clearance (m) above the regions covering them
+HOVER_REGION_CLEARANCE_M = 0.5
+#: lost the hover point: farther than this (m) horizontally goes back to approach
+HOLD_LOST_M = 1.7
 
 
 class Phase(StrEnum):
     APPROACH = "approach"
     HOLD = "hold"
     DESCEND = "descend"
+    CLIMB_OUT = "climb-out"
     TOUCHDOWN = "touchdown"
 
 
-def disc_clear(target_xy: FloatArray, radius_m: float, regions: list[UnsafeRegion],
-               dynamic_reach_m: float = 0.0) -> bool:
-    """True when no region's footprint (box in x, y) meets the disc around ``target_xy``.
+@dataclass(frozen=True)
+class Surroundings:
+    """What the landing logic needs from the world model at one tick."""
 
-    Dynamic regions count as grown by ``dynamic_reach_m`` (how far they may move meanwhile).
-    """
+    regions: list[UnsafeRegion]
+    people: list[PersonHypothesis]
+    #: radius (m) around the vehicle within which the downward camera sees everyone (0: none)
+    coverage_m: float
+    #: regions the landing disc must stay clear of during a descent of the given duration (s)
+    landing_regions: Callable[[float], list[UnsafeRegion]]
+
+
+@dataclass(frozen=True)
+class GateDecision:
+    """The gate at one tick: is the rest of the descent provably clear?"""
+
+    duration_s: float  # until touchdown is complete (profile + margin + dwell)
+    clearance: Clearance  # the hard limit's worst margin
+    disc_clear: bool  # the semantic / geometric landing-disc check
+
+    @property
+    def open(self) -> bool:
+        return self.clearance.safe and self.disc_clear
+
+
+def disc_clear(target_xy: FloatArray, radius_m: float, regions: list[UnsafeRegion]) -> bool:
+    """True when no region's footprint (box in x, y) meets the disc around ``target_xy``."""
     c = np.asarray(target_xy, dtype=float)[:2]
     for r in regions:
         nearest = np.clip(c, r.lo[:2], r.hi[:2])
-        reach = dynamic_reach_m if r.is_dynamic else 0.0
-        if float(np.linalg.norm(nearest - c)) < radius_m + reach:
+        if float(np.linalg.norm(nearest - c)) < radius_m:
             return False
     return True
 
 
-def descent_speed(height_m: float, settings: PlannerSettings) -> float:
-    """Commanded sink rate (m/s) at ``height_m`` above the touchdown point.
-
-    ``√(2·a·h)`` (a constant-deceleration approach to the ground), within
-    [``descent_min_speed_mps``, ``descent_speed_mps``].
-    """
-    s = settings
-    v = math.sqrt(2.0 * s.descent_brake_mps2 * max(height_m, 0.0))
-    return min(max(v, s.descent_min_speed_mps), s.descent_speed_mps)
-
-
-def descent_profile(z0_m: float, ground_m: float, dt_s: float, count: int,
-                    settings: PlannerSettings) -> tuple[FloatArray, FloatArray]:
-    """Heights ``(count,)`` and vertical speeds ``(count,)`` of the descent from ``z0_m``.
-
-    Ends 3 cm above ``ground_m`` at rest (the touchdown detector fires before that).
-    """
-    floor = ground_m + 0.03
-    z = np.empty(count)
-    vz = np.empty(count)
-    h = z0_m
-    for k in range(count):
-        v = descent_speed(h - ground_m, settings) if h > floor else 0.0
-        z[k], vz[k] = h, -v
-        h = max(floor, h - v * dt_s)
-    return z, vz
-
-
-def time_to_touchdown(height_m: float, settings: PlannerSettings) -> float:
-    """Seconds :func:`descent_speed` needs from ``height_m`` down to the touchdown height.
-
-    Closed form (it runs every control tick): ``1/v(h)`` integrated over the three pieces
-    of the profile — constant ``v_min`` low down, ``√(2·a·h)`` between, constant ``v_max``
-    high up.
-    """
-    s = settings
-    a, v_lo, v_hi = s.descent_brake_mps2, s.descent_min_speed_mps, s.descent_speed_mps
-    h_lo, h_hi = v_lo ** 2 / (2.0 * a), v_hi ** 2 / (2.0 * a)  # where √(2·a·h) meets the limits
-
-    def span(lo: float, hi: float) -> tuple[float, float]:  # [h_td, h] ∩ [lo, hi]
-        return max(lo, s.touchdown_height_m), min(hi, height_m)
-
-    t = 0.0
-    lo, hi = span(0.0, h_lo)
-    t += max(0.0, hi - lo) / v_lo
-    lo, hi = span(h_lo, h_hi)
-    if hi > lo:
-        t += math.sqrt(2.0 * hi / a) - math.sqrt(2.0 * lo / a)
-    lo, hi = span(h_hi, math.inf)
-    t += max(0.0, hi - lo) / v_hi
-    return t
-
-
 def hover_altitude(target_m: FloatArray, regions: list[UnsafeRegion], settings: PlannerSettings) -> float:
-    """Cruise altitude above ground, raised over any region that covers the hover point."""
+    """Cruise altitude above the target, raised over any region that covers the hover point and can
+    be overflown (one too tall to overfly cannot be honoured by height; the world model keeps
+    still ones off the landing disc)."""
     t = np.asarray(target_m, dtype=float)
     z = t[2] + settings.cruise_altitude_m
+    ceiling = t[2] + settings.max_altitude_m - HOVER_REGION_CLEARANCE_M
     for r in regions:
+        if float(r.hi[2]) + HOVER_REGION_CLEARANCE_M > ceiling:
+            continue
         if np.all(t[:2] >= r.lo[:2]) and np.all(t[:2] <= r.hi[:2]):
-            z = max(z, float(r.hi[2]) + 0.5)
-    return min(z, t[2] + settings.max_altitude_m)
+            z = max(z, float(r.hi[2]) + HOVER_REGION_CLEARANCE_M)
+    return z
 
 
 @dataclass
@@ -124,32 +108,47 @@ class LandingLogic:
     target_m: FloatArray
     settings: PlannerSettings
     phase: Phase = Phase.APPROACH
-    _clear_since: float | None = None
-    _scan_since: float | None = None
+    climbed: bool = False
+    last_gate: GateDecision | None = None
+    profile: DescentProfile = field(init=False)
+    bounds: HumanMotionBounds = field(init=False)
 
-    def reach_clear(self, height_m: float, regions: list[UnsafeRegion]) -> bool:
-        """The disc is clear, even of anyone who may walk in before touchdown from ``height_m``."""
+    def __post_init__(self) -> None:
         s = self.settings
-        reach = s.reach_speed_mps * time_to_touchdown(height_m, s)
-        return disc_clear(np.asarray(self.target_m)[:2], s.landing_disc_radius_m, regions, reach)
+        self.profile = DescentProfile(s.descent_speed_mps, s.descent_accel_mps2, s.descent_brake_mps2,
+                                      s.descent_touchdown_speed_mps)
+        self.bounds = HumanMotionBounds(s.human_max_speed_mps, s.human_step_speed_mps, s.human_max_accel_mps2,
+                                        s.human_speed_error_mps)
+        if s.cruise_altitude_m < REACH_CEILING_M + ARRIVE_HEIGHT_TOL_M:
+            raise ValueError(f"cruise_altitude_m must be >= {REACH_CEILING_M + ARRIVE_HEIGHT_TOL_M} m "
+                             "(above everyone's reach with a tracking margin)")
 
-    def scan_done(self, t_s: float) -> bool:
+    def gate(self, height_m: float, sink_mps: float, around: Surroundings, *, committed: bool = False) -> GateDecision:
+        """The hard-limit gate for the rest of a descent from ``height_m`` sinking at ``sink_mps``.
+
+        ``committed``: re-checking a descent under way. The untracked bound was shown at the
+        commit for the whole descent (anyone outside the coverage then cannot reach the landing
+        point before touchdown) and only holds more easily since; the coverage shrinks as the
+        vehicle sinks, so it is not re-evaluated. Everyone tracked is re-checked.
+        """
         s = self.settings
-        need = s.scan_sweep_rad / s.scan_yaw_rate_rps if s.scan_yaw_rate_rps > 0 else 0.0
-        return self._scan_since is not None and t_s - self._scan_since >= need
+        duration = (self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m)
+                    + s.descent_time_margin_s + s.touchdown_dwell_s)
+        coverage = around.coverage_m if s.require_coverage and not committed else float("inf")
+        clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
+                                     frame_period_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m)
+        clear = disc_clear(self.target_m[:2], s.landing_disc_radius_m, around.landing_regions(duration))
+        self.last_gate = GateDecision(duration, clearance, clear)
+        return self.last_gate
 
-    def _to_hold(self) -> None:
-        self.phase = Phase.HOLD
-        self._scan_since = None  # a new hold looks all around again before descending
-
-    def update(self, pos_m: FloatArray, vel_mps: FloatArray, regions: list[UnsafeRegion],
-               t_s: float) -> tuple[Phase, FloatArray]:
+    def update(self, pos_m: FloatArray, vel_mps: FloatArray, t_s: float,
+               around: Surroundings) -> tuple[Phase, FloatArray]:
         s = self.settings
         tgt = np.asarray(self.target_m, dtype=float)
         pos, vel = np.asarray(pos_m, dtype=float), np.asarray(vel_mps, dtype=float)
-        hover = np.array([tgt[0], tgt[1], hover_altitude(tgt, regions, s)])
-        horiz = float(np.linalg.norm(pos[:2] - tgt[:2]))
+        hover = np.array([tgt[0], tgt[1], hover_altitude(tgt, around.regions, s)])
         height = float(pos[2] - tgt[2])
+        horiz = float(np.linalg.norm(pos[:2] - tgt[:2]))
 
         if self.phase == Phase.TOUCHDOWN:
             return self.phase, tgt
@@ -157,26 +156,24 @@ class LandingLogic:
             if height < s.touchdown_height_m:
                 self.phase = Phase.TOUCHDOWN
                 return self.phase, tgt
-            if height > s.commit_height_m and not self.reach_clear(height, regions):
-                self._to_hold()
-                self._clear_since = None
+            gate = self.gate(height, max(0.0, -float(vel[2])), around, committed=True)
+            if height > s.commit_height_m and not gate.open:
+                self.phase = Phase.CLIMB_OUT
                 return self.phase, hover
             return self.phase, tgt
-        # The gate is judged from the hover height: the descent will start from there.
-        if self.reach_clear(float(hover[2] - tgt[2]), regions):
-            self._clear_since = t_s if self._clear_since is None else self._clear_since
-        else:
-            self._clear_since = None
-        arrived = horiz < s.align_radius_m and abs(pos[2] - hover[2]) < 0.6 and float(np.linalg.norm(vel)) < 0.5
-        if self.phase == Phase.APPROACH and arrived:
-            self._to_hold()
+        if not self.climbed:  # take-off climb: above everyone's reach before flying anywhere
+            if pos[2] >= tgt[2] + s.cruise_altitude_m - ARRIVE_HEIGHT_TOL_M:
+                self.climbed = True
+            else:
+                return self.phase, np.array([pos[0], pos[1], tgt[2] + s.cruise_altitude_m])
+        arrived = (horiz < s.align_radius_m and abs(pos[2] - hover[2]) < ARRIVE_HEIGHT_TOL_M
+                   and float(np.linalg.norm(vel)) < ARRIVE_SPEED_MPS)
+        if self.phase in (Phase.APPROACH, Phase.CLIMB_OUT) and arrived:
+            self.phase = Phase.HOLD
         if self.phase == Phase.HOLD:
-            if arrived and self._scan_since is None:
-                self._scan_since = t_s
-            if (arrived and self.scan_done(t_s) and self._clear_since is not None
-                    and t_s - self._clear_since >= s.hold_clear_s):
+            if arrived and self.gate(height, max(0.0, -float(vel[2])), around).open:
                 self.phase = Phase.DESCEND
                 return self.phase, tgt
-            if horiz > 2.0 * s.align_radius_m + 1.0:
+            if horiz > HOLD_LOST_M:
                 self.phase = Phase.APPROACH
         return self.phase, hover

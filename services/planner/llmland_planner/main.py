@@ -1,8 +1,8 @@
 """``llmland-planner``: unsafe regions, kinodynamic search, safe corridors and MPC as a service.
 
 Subscribes ``llmland/<d>/mission`` (the resolved MissionGoal), ``sim/state`` (one MPC tick
-per state), ``sim/camera`` (depth → tracked obstacles) and ``reasoner/spec`` (semantic
-buffers). Publishes ``planner/command`` (echoing each state's ``seq``) and
+per state), ``sim/camera`` and ``sim/camera_down`` (depth → tracked obstacles) and
+``reasoner/spec`` (semantic buffers). Publishes ``planner/command`` (echoing each state's ``seq``) and
 ``planner/plan`` (reference, corridors, unsafe regions) whenever a new plan is adopted.
 """
 
@@ -52,7 +52,7 @@ class PlannerService:
         self.episode_id: str | None = None
         self._tick_lock = threading.Lock()
         self._inputs = threading.Condition()
-        self._frame_seq = -1  # newest frame of this episode handed to the planner
+        self._frame_seq = {"forward": -1, "down": -1}  # newest frame per camera handed to the planner
         self._spec_stamp = -1.0  # newest spec stamp of this episode received
         self._states: queue.Queue[VehicleState | None] = queue.Queue()
         self.late_inputs = 0
@@ -61,6 +61,7 @@ class PlannerService:
         bus.subscribe(key(d, Topic.MISSION), MissionGoal, self._on_mission)
         bus.subscribe(key(d, Topic.STATE), VehicleState, lambda _k, st: self._states.put(st))
         bus.subscribe_parsed(key(d, Topic.CAMERA), decode_frame, self._on_frame)
+        bus.subscribe_parsed(key(d, Topic.CAMERA_DOWN), decode_frame, self._on_frame)
         bus.subscribe(key(d, Topic.SPEC), SafetySpecMessage, self._on_spec)
         self._worker = threading.Thread(target=self._run, name="planner-tick", daemon=True)
         self._worker.start()
@@ -73,13 +74,14 @@ class PlannerService:
             self.planner.start(m)
             with self._inputs:
                 self.episode_id = m.episode_id
-                self._frame_seq, self._spec_stamp = -1, -1.0
+                self._frame_seq, self._spec_stamp = {"forward": -1, "down": -1}, -1.0
 
     def _on_frame(self, _k: str, frame: CameraFrame) -> None:
         if frame.header.episode_id == self.episode_id:
             self.planner.on_frame(frame)
             with self._inputs:
-                self._frame_seq = max(self._frame_seq, frame.header.seq)
+                cam = frame.header.camera
+                self._frame_seq[cam] = max(self._frame_seq[cam], frame.header.seq)
                 self._inputs.notify_all()
 
     def _on_spec(self, _k: str, msg: SafetySpecMessage) -> None:
@@ -92,7 +94,8 @@ class PlannerService:
     def _wait_inputs(self, st: VehicleState) -> None:
         """Lockstep: wait until the frame and specs this state refers to are in."""
         def ready() -> bool:
-            frame_ok = st.camera_seq is None or self._frame_seq >= st.camera_seq
+            frame_ok = ((st.camera_seq is None or self._frame_seq["forward"] >= st.camera_seq)
+                        and (st.down_camera_seq is None or self._frame_seq["down"] >= st.down_camera_seq))
             spec_ok = st.specs_released_upto_s is None or self._spec_stamp >= st.specs_released_upto_s - 1e-9
             return frame_ok and spec_ok
 

@@ -35,7 +35,8 @@ from llmland_schemas.frames import CameraFrame
 
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .dynamics import FloatArray, ModelParams
-from .landing import LandingLogic, Phase, descent_profile
+from .hard_limit import REACH_CEILING_M, coverage_radius_m
+from .landing import LandingLogic, Phase, Surroundings
 from .mpc import MpcController, MpcResult
 from .path import Path, resample
 from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
@@ -47,6 +48,16 @@ log = logging.getLogger(__name__)
 
 #: Farther than this (m) outside the current corridor, its rows are dropped and we replan.
 CORRIDOR_EXIT_M = 0.3
+#: The MPC's soft floor sits this far (m) below the target: the ground, not the goal.
+GROUND_FLOOR_MARGIN_M = 0.2
+#: Paths and holds keep this much (m) above the reach ceiling.
+REACH_FLOOR_MARGIN_M = 0.1
+#: A downward frame older than this (s) gives no coverage (the camera is off or stalled).
+DOWN_FRAME_FRESH_S = 0.5
+#: Holding: the forward camera turns toward possible people nearer than this (m).
+YAW_ATTENTION_M = 12.0
+#: Approaching: face the goal while it is farther than this (m).
+YAW_ALONG_PATH_MIN_M = 1.0
 
 
 @dataclass
@@ -114,7 +125,7 @@ class Planner:
             else:
                 self.search_cfg = replace(self.search_cfg, time_budget_s=self.settings.search_budget_s,
                                           max_expansions=SearchConfig.max_expansions)
-            self.world = WorldModel(self.settings, mission.method)
+            self.world = WorldModel(self.settings, mission.method, np.asarray(mission.target_m, dtype=float))
             self.landing = LandingLogic(np.asarray(mission.target_m, dtype=float), self.settings)
             self.active, self._job = None, None
             self._last_replan_s = -1e9
@@ -135,35 +146,45 @@ class Planner:
                 self.world.on_spec(msg)
 
     # ------------------------------------------------------------------ control tick
+    def _surroundings(self, t: float, pos: FloatArray, tilt_rad: float) -> Surroundings:
+        """The world model's views for the landing logic (under the lock)."""
+        assert self.world is not None and self.landing is not None
+        w, s = self.world, self.settings
+        coverage = 0.0
+        fresh = w.last_down_stamp_s is not None and t - w.last_down_stamp_s <= DOWN_FRAME_FRESH_S
+        if w.down_half_fov_rad is not None and fresh:
+            coverage = coverage_radius_m(float(pos[2] - self.landing.target_m[2]), w.down_half_fov_rad, tilt_rad,
+                                         s.coverage_visible_height_m)
+        return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration))
+
     def tick(self, state: VehicleState) -> TickOutput:
         t_tick = time.perf_counter()
         assert self.world is not None and self.landing is not None
         t = state.stamp
         pos, vel = np.asarray(state.position_m), np.asarray(state.velocity_mps)
+        euler = np.asarray(state.euler_rpy_rad)
         with self._lock:
+            self.world.ingest(t)
             self.world.release_specs(t, state.specs_released_upto_s, lockstep=self._lockstep)
-            regions = self.world.regions(t)
-        phase, goal = self.landing.update(pos, vel, regions, t)
-        if phase in (Phase.HOLD, Phase.DESCEND):
-            # Scan: the camera looks forward-down, so turn slowly over the landing spot to
-            # see people coming from every side before and while descending.
-            self._yaw_ref += self.settings.scan_yaw_rate_rps * max(0.0, t - self._last_t)
-        self._last_t = t
+            around = self._surroundings(t, pos, float(np.hypot(euler[0], euler[1])))
+        phase, goal = self.landing.update(pos, vel, t, around)
+        regions = around.regions
+        self._steer_yaw(phase, t, pos, goal, around)
         snapshot = None
         if phase == Phase.TOUCHDOWN:
             return TickOutput(np.zeros(3), 0.0, phase.value, None, 1e3 * (time.perf_counter() - t_tick))
-        n, dt = self.settings.horizon, self.settings.mpc_dt_s
         halfspaces = None
-        if phase == Phase.DESCEND:
-            z, vz = descent_profile(float(pos[2]), float(goal[2]), dt, n + 2, self.settings)
-            ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z[1:]])
-            ref_vel = np.column_stack([np.zeros(n + 1), np.zeros(n + 1), vz[1:]])
+        if phase in (Phase.DESCEND, Phase.CLIMB_OUT):
+            ref_pos, ref_vel = self._vertical_reference(phase, pos, vel, goal)
             self.active = None
         else:
             snapshot = self._maybe_replan(t, pos, vel, goal, regions)
             ref_pos, ref_vel, halfspaces = self._reference(pos, goal)
-        x0 = np.concatenate([pos, vel, np.asarray(state.euler_rpy_rad)])
-        z_floor = float(self.landing.target_m[2]) - 0.2  # the ground, not the goal
+        x0 = np.concatenate([pos, vel, euler])
+        if phase in (Phase.DESCEND, Phase.CLIMB_OUT):
+            z_floor = float(self.landing.target_m[2]) - GROUND_FLOOR_MARGIN_M  # the ground, not the goal
+        else:  # approaching and holding: above everyone's reach (hard_limit.REACH_CEILING_M)
+            z_floor = self._reach_floor(pos)
         yaw = float(state.euler_rpy_rad[2])
         yaw_ref = yaw + math.remainder(self._yaw_ref - yaw, 2.0 * math.pi)  # no unwinding through ±π
         res = self.mpc.solve(x0, ref_pos, ref_vel, yaw_ref, halfspaces, z_floor_m=z_floor)
@@ -175,6 +196,54 @@ class Planner:
         mode = phase.value if res.ok else "fallback"
         return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
                           1e3 * (time.perf_counter() - t_tick), snapshot)
+
+    def _reach_floor(self, pos: FloatArray) -> float:
+        """Lowest altitude (m) for paths and holds outside the final descent: above everyone's
+        reach, or where the vehicle is when it is still climbing there."""
+        assert self.landing is not None
+        floor = float(self.landing.target_m[2]) + REACH_CEILING_M + REACH_FLOOR_MARGIN_M
+        return min(floor, float(pos[2]) - REACH_FLOOR_MARGIN_M)
+
+    def _vertical_reference(self, phase: Phase, pos: FloatArray, vel: FloatArray,
+                            goal: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Straight down the descent profile, or straight up to the hover point (``(N+1, 3)`` each)."""
+        assert self.landing is not None
+        n, dt = self.settings.horizon, self.settings.mpc_dt_s
+        ground = float(self.landing.target_m[2])
+        if phase == Phase.DESCEND:
+            h, sink = self.landing.profile.reference(float(pos[2]) - ground, max(0.0, -float(vel[2])), dt, n + 2)
+            z, vz = ground + h[1:], -sink[1:]
+        else:
+            climb = self.settings.climb_speed_mps
+            z = np.minimum(float(pos[2]) + climb * dt * np.arange(1, n + 2), float(goal[2]))
+            vz = np.where(z < float(goal[2]), climb, 0.0)
+        ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z])
+        ref_vel = np.column_stack([np.zeros(n + 1), np.zeros(n + 1), vz])
+        return ref_pos, ref_vel
+
+    def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings) -> None:
+        """Where the forward camera looks: along the way while approaching; while holding, at the
+        nearest possible person (their class stays fresh), else turning slowly to see all around."""
+        s = self.settings
+        dt = max(0.0, t - self._last_t)
+        self._last_t = t
+        if phase in (Phase.DESCEND, Phase.TOUCHDOWN, Phase.CLIMB_OUT):
+            return
+        if phase == Phase.APPROACH:
+            d = goal[:2] - pos[:2]
+            if float(np.linalg.norm(d)) > YAW_ALONG_PATH_MIN_M:
+                self._turn_toward(math.atan2(float(d[1]), float(d[0])), s.hold_yaw_rate_rps * dt)
+            return
+        near = [p for p in around.people if float(np.linalg.norm(p.centre_xy[:2] - pos[:2])) <= YAW_ATTENTION_M]
+        if near:
+            c = min(near, key=lambda p: float(np.linalg.norm(p.centre_xy[:2] - pos[:2]))).centre_xy
+            self._turn_toward(math.atan2(float(c[1] - pos[1]), float(c[0] - pos[0])), s.hold_yaw_rate_rps * dt)
+        else:
+            self._yaw_ref += s.scan_yaw_rate_rps * dt
+
+    def _turn_toward(self, heading: float, max_step: float) -> None:
+        err = math.remainder(heading - self._yaw_ref, 2.0 * math.pi)
+        self._yaw_ref += float(np.clip(err, -max_step, max_step))
 
     # ------------------------------------------------------------------ search
     def _maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
@@ -219,7 +288,8 @@ class Planner:
             # Clearance region at the start (paper App.): if a region has grown over the
             # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
             depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
-            cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3))
+            cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3),
+                          z_floor_m=self._reach_floor(pos))
             path = plan(pos, vel, job.goal_m, regions, cfg)
             if path is not None:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)

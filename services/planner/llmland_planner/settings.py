@@ -23,36 +23,67 @@ class PlannerSettings(BaseSettings):
     search_max_expansions: int = 400
     replan_period_s: float = 1.0
     sweep_horizon_s: float = 2.0
-    # semantics
+    # perception and semantics
     baseline_margin_m: float = 1.0
-    spec_match_m: float = 1.5
+    #: a spec applies to tracks whose centroid is within max(this, the object's radius) (m) of its object
+    spec_match_m: float = 0.6
+    #: a spec of something that may move is trusted this long (s) without a new one
     spec_stale_s: float = 8.0
+    #: a static thing's spec is void once its track's height changed by more than this (m)
+    spec_height_tolerance_m: float = 0.4
+    #: a moving thing of a static class is taken for a misread person when it is this size:
+    #: height (m) at least ... and horizontal half-diagonal (m) at most ...
+    person_min_height_m: float = 0.8
+    person_max_radius_m: float = 0.8
     moving_speed_mps: float = 0.25
     moving_displacement_m: float = 1.0
-    #: out of view: constant-velocity prediction is trusted this long (s) ...
+    #: out of view, constant-velocity prediction is trusted this long (s)
     predict_cap_s: float = 1.0
-    #: ... then a dynamic obstacle's buffer grows at this speed (m/s), up to this much (m)
-    unseen_growth_mps: float = 1.0
-    unseen_growth_max_m: float = 3.0
+    track_gate_m: float = 1.5
+    #: a track that should have been seen but was not is dropped after this long (s)
+    track_forget_s: float = 2.0
+    blob_stride: int = 2
+    #: depth points less than this (m) above the estimated ground are ground
+    ground_tolerance_m: float = 0.25
+    max_range_m: float = 30.0
+    # hard limit (hard_limit.py): human motion bounds and margins
+    #: ISO 13855 walking approach speed (m/s)
+    human_max_speed_mps: float = 1.6
+    human_step_speed_mps: float = 0.5
+    human_max_accel_mps2: float = 2.0
+    human_speed_error_mps: float = 0.3
+    #: tracks seen within this time (s) enter the gate one by one; older ones are outside coverage
+    recent_observation_s: float = 0.5
+    #: horizontal error (m) of the landing point: position tracking plus body half-depth
+    landing_xy_margin_m: float = 0.25
+    #: extra time (s) on top of the descent profile's duration (tracking lag)
+    descent_time_margin_s: float = 0.2
+    #: the sim's touchdown detection needs this long (s) low and slow
+    touchdown_dwell_s: float = 0.3
+    #: downward camera: a person is seen when their body below this height (m) is in view
+    coverage_visible_height_m: float = 1.0
+    #: downward frames arrive this often (s) (the untracked bound adds one period)
+    coverage_frame_period_s: float = 0.2
+    #: without a downward camera the untracked bound cannot be shown: never descend
+    require_coverage: bool = True
     # landing
-    cruise_altitude_m: float = 3.0
+    cruise_altitude_m: float = 3.5
     max_altitude_m: float = 10.0
     landing_disc_radius_m: float = 0.8
+    #: still obstacles' footprints keep this clearance (m) from the landing disc
+    landing_clearance_m: float = 0.5
     align_radius_m: float = 0.35
-    #: descent: sink rate √(2·brake·h) within [min, max] (m/s): fast high up, soft at the ground
-    descent_speed_mps: float = 1.2
-    descent_min_speed_mps: float = 0.3
-    descent_brake_mps2: float = 0.8
+    #: final descent: sink up to this speed (m/s), accelerating / flaring at these rates (m/s²)
+    descent_speed_mps: float = 3.0
+    descent_accel_mps2: float = 5.0
+    descent_brake_mps2: float = 5.0
+    descent_touchdown_speed_mps: float = 0.3
     #: below this height (m) a started descent is finished rather than aborted
-    commit_height_m: float = 0.5
-    #: how fast (m/s) a person or vehicle may close in unseen while the drone descends
-    reach_speed_mps: float = 1.5
+    commit_height_m: float = 0.6
     touchdown_height_m: float = 0.12
-    hold_clear_s: float = 0.5
-    #: yaw rate while holding and descending, so the forward-down camera sees all around
-    scan_yaw_rate_rps: float = 1.0
-    #: yaw swept (rad) in each hold before a descent: 360° less the camera's 90° field of view
-    scan_sweep_rad: float = 4.8
-    #: perception
-    blob_stride: int = 2
-    max_range_m: float = 30.0
+    #: climbing out: up at this speed (m/s)
+    climb_speed_mps: float = 1.5
+    #: holding: turn toward the nearest possible person at up to this yaw rate (rad/s), else
+    #: turn slowly to look all around
+    hold_yaw_rate_rps: float = 1.0
+    scan_yaw_rate_rps: float = 0.5

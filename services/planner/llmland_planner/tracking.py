@@ -55,6 +55,8 @@ class TrackedObstacle:
     missed_s: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
     origin_m: FloatArray | None = None  # centroid when first seen (tells real motion from view changes)
+    #: the last side view cut it at the top of the image: its top is unknown (at least ``hi_m[2]``)
+    touches_top: bool = False
 
 
 class ObstacleTracker:
@@ -90,13 +92,20 @@ class ObstacleTracker:
         self.gate_max_m = gate_max_m
         self._tracks: list[TrackedObstacle] = []
         self._raw_velocity: dict[str, FloatArray] = {}
+        #: (track id, camera) → that camera's last centroid of the track and its stamp
+        self._last_by_source: dict[tuple[str, str], tuple[FloatArray, float]] = {}
         self._next_id = 0
         self._last_update_s: float | None = None
 
     def update(
-        self, blobs: Sequence[Blob], stamp_s: float, visible_fn: VisibleFn | None = None
+        self, blobs: Sequence[Blob], stamp_s: float, visible_fn: VisibleFn | None = None, source: str = ""
     ) -> list[TrackedObstacle]:
-        """Associate one frame's blobs (taken at ``stamp_s``, s) and return the live tracks."""
+        """Associate one frame's blobs (taken at ``stamp_s``, s) and return the live tracks.
+
+        ``source`` names the camera: velocity samples come from consecutive observations by the
+        same camera (two cameras see different surfaces of an object: that shift is not motion).
+        Several cameras' frames of one instant are fed one after the other with the same stamp.
+        """
         dt_frame = 0.0 if self._last_update_s is None else max(0.0, stamp_s - self._last_update_s)
         self._last_update_s = stamp_s
         matched_tracks: set[int] = set()
@@ -109,7 +118,7 @@ class ObstacleTracker:
             gated = np.where(cost <= gate, cost, 1e6)
             for ti, bi in zip(*linear_sum_assignment(gated), strict=True):
                 if cost[ti, bi] <= gate[ti, bi]:
-                    self._correct(self._tracks[ti], blobs[bi], stamp_s)
+                    self._correct(self._tracks[ti], blobs[bi], stamp_s, source)
                     matched_tracks.add(int(ti))
                     matched_blobs.add(int(bi))
         kept: list[TrackedObstacle] = []
@@ -121,11 +130,13 @@ class ObstacleTracker:
                 if track.missed_s > self.forget_after_s or too_long:
                     log.debug("forgetting track %s (missed %.2f s)", track.track_id, track.missed_s)
                     self._raw_velocity.pop(track.track_id, None)
+                    for key in [k for k in self._last_by_source if k[0] == track.track_id]:
+                        del self._last_by_source[key]
                     continue
             kept.append(track)
         for bi, blob in enumerate(blobs):
             if bi not in matched_blobs:
-                kept.append(self._new_track(blob, stamp_s))
+                kept.append(self._new_track(blob, stamp_s, source))
         self._tracks = kept
         return list(self._tracks)
 
@@ -144,7 +155,7 @@ class ObstacleTracker:
         alike = np.abs(t_h[:, None] - b_h[None, :]) <= 0.4
         return np.where(alike, wide[:, None], self.gate_m)
 
-    def _new_track(self, blob: Blob, stamp_s: float) -> TrackedObstacle:
+    def _new_track(self, blob: Blob, stamp_s: float, source: str = "") -> TrackedObstacle:
         track = TrackedObstacle(
             track_id=f"t{self._next_id}",
             centroid_m=np.array(blob.centroid_m, dtype=np.float64),
@@ -154,21 +165,27 @@ class ObstacleTracker:
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
             origin_m=np.array(blob.centroid_m, dtype=np.float64),
+            touches_top=blob.touches_top and source != "down",
         )
+        self._last_by_source[(track.track_id, source)] = (track.centroid_m.copy(), stamp_s)
         self._next_id += 1
         return track
 
-    def _correct(self, track: TrackedObstacle, blob: Blob, stamp_s: float) -> None:
+    def _correct(self, track: TrackedObstacle, blob: Blob, stamp_s: float, source: str = "") -> None:
         """Fold a matched blob into ``track``: smoothed horizontal velocity, latest bounds."""
         centroid = np.array(blob.centroid_m, dtype=np.float64)
-        dt = stamp_s - track.last_seen_s
+        prev_c, prev_t = self._last_by_source.get((track.track_id, source), (track.centroid_m, track.last_seen_s))
+        self._last_by_source[(track.track_id, source)] = (centroid.copy(), stamp_s)
+        dt = stamp_s - prev_t
         if dt > 1e-6:
             sample = np.zeros(3)
-            sample[:2] = (centroid[:2] - track.centroid_m[:2]) / dt
+            sample[:2] = (centroid[:2] - prev_c[:2]) / dt
             prev = self._raw_velocity.get(track.track_id)
             a = self.velocity_alpha
             self._raw_velocity[track.track_id] = sample if prev is None else a * sample + (1.0 - a) * prev
         track.hits += 1
+        if source != "down":  # a downward view sees tops; a side view may cut them off
+            track.touches_top = blob.touches_top
         track.centroid_m = centroid
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)

@@ -1,42 +1,57 @@
-"""What the planner believes is around it: tracked depth obstacles plus their semantics.
+"""What the planner believes is around it: tracked depth obstacles, their semantics, and who may
+be a person.
 
-Geometry comes from the depth image only (the planner is never told what an obstacle is by
-the simulator). Semantics come from ``reasoner/spec`` messages, attached to tracks by
-position. Each spec is applied at sim time ``frame stamp + measured latency`` (DESIGN §4),
-so a slower reasoner delivers its spec later and the drone pays for it.
+Geometry comes from the depth images only (the forward-down camera and the downward landing
+camera; the simulator never tells the planner what an obstacle is): both cameras' blobs go to
+one tracker (:mod:`.tracking`), which estimates velocity from consecutive views of the same
+camera so the two views' different visible surfaces are not mistaken for motion. Semantics come from
+``reasoner/spec`` messages attached to tracks by position; in lockstep a spec applies from the
+tick the sim says it has arrived (DESIGN §4), in realtime at ``frame stamp + latency``.
 
-Unsafe regions (DESIGN §6):
+Three views of the tracks, one per use (DESIGN §6):
 
-- ``baseline``: every track gets one fixed margin; tracks that the tracker sees moving are
-  swept along their measured velocity (same geometry as the semantic methods). Only the
-  semantic methods, which know an obstacle is a person or a vehicle, let its buffer grow
-  while it is out of view.
-- semantic methods (``llm``, ``llm-land``): the spec's ``buffer_m`` and ``z_min``; dynamic
-  classes (or measured motion) are swept over the horizon. A track with no spec yet, or
-  whose spec is older than ``spec_stale_s``, gets the most conservative class.
+- :meth:`WorldModel.regions` — the *semantic keep-out* for the path and the hover point:
+  footprint inflated by the spec's buffer up to its ``z_min``; moving tracks swept along their
+  predicted motion (constant velocity, no worst case). ``baseline``: one fixed margin for
+  everything; ``conservative``: every obstacle a person. A track with no spec yet, or a stale
+  one, gets the most conservative class.
+- :meth:`WorldModel.landing_regions` — what the landing disc must stay clear of during a
+  descent: moving vehicles and animals swept over the descent with their buffer, everything
+  else its footprint plus ``landing_clearance_m`` (geometry; a parked car does not keep the pad
+  closed, and people are the hard limit's).
+- :meth:`WorldModel.people` — tracks that may be a person, for the hard limit
+  (:mod:`.hard_limit`): a person or an unknown/stale class, anything dynamic the KB cannot vouch
+  for, and anything that moves unless it is known to be a vehicle or animal. ``baseline`` only
+  knows motion; ``conservative`` counts every obstacle.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from llmland_schemas import PERSON_BUFFER_M, PERSON_Z_MIN_M, SafetySpec, SafetySpecMessage
-from llmland_schemas.depth import blobs_from_frame
+from llmland_schemas.depth import Blob, backproject, find_blobs
 from llmland_schemas.frames import CameraFrame
 
 from .dynamics import FloatArray
-from .regions import UnsafeRegion, from_obstacle
+from .ground import GroundMap
+from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
+from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
-from .tracking import ObstacleTracker, TrackedObstacle
+from .tracking import ObstacleTracker, TrackedObstacle, VisibleFn
 
 log = logging.getLogger(__name__)
+
+#: every Nth of the blob points (each way) votes in the ground map
+GROUND_POINT_STRIDE = 2
 
 
 @dataclass
 class PendingSpec:
-    """A spec waiting for its sim-time release."""
+    """A spec waiting for its release."""
 
     apply_at_s: float
     #: the source frame's stamp (s): in lockstep the sim says up to which stamp specs apply
@@ -47,7 +62,23 @@ class PendingSpec:
     radius_m: float = 0.0
 
 
-def frustum_fn(frame: CameraFrame, max_range_m: float):  # type: ignore[no-untyped-def]
+@dataclass(frozen=True)
+class TrackView:
+    """One track as the planner uses it at a time: geometry, motion and class."""
+
+    track: TrackedObstacle
+    #: its predicted motion is used (a measured motion the method believes)
+    moving: bool
+    buffer_m: float
+    z_min: float
+    label: str
+    dynamic: bool
+    possible_person: bool
+    #: known to be a person (their height is bounded)
+    human: bool = False
+
+
+def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
     """``visible(point_m) -> bool`` for the frame's camera (in image and within range)."""
     t_cw = np.linalg.inv(frame.T_world_camera)
     k = frame.header.intrinsics
@@ -63,19 +94,35 @@ def frustum_fn(frame: CameraFrame, max_range_m: float):  # type: ignore[no-untyp
 
 
 def more_careful(a: SafetySpec, b: SafetySpec) -> SafetySpec:
-    """The spec asking more of the drone: dynamic first, then the larger buffer, then ``z_min``."""
-    return b if (b.is_dynamic, b.buffer_m, b.z_min) > (a.is_dynamic, a.buffer_m, a.z_min) else a
+    """The spec asking more of the drone: human first, dynamic, the larger buffer, then ``z_min``."""
+    def rank(s: SafetySpec) -> tuple[int, bool, float, float]:
+        return (2 if s.is_human else 1 if s.is_human is None else 0, s.is_dynamic, s.buffer_m, s.z_min)
+
+    return b if rank(b) > rank(a) else a
+
+
+def half_fov_rad(frame: CameraFrame) -> float:
+    """Half of the narrower field of view (rad) of a frame's pinhole camera."""
+    k = frame.header.intrinsics
+    return min(math.atan(0.5 * k.width / k.fx), math.atan(0.5 * k.height / k.fy))
 
 
 class WorldModel:
-    """Tracks + semantic specs → unsafe regions for one episode."""
+    """Tracks + semantic specs → unsafe regions and possible people, for one episode."""
 
-    def __init__(self, settings: PlannerSettings, method: str) -> None:
-        self.settings = settings
+    def __init__(self, settings: PlannerSettings, method: str, target_m: FloatArray | None = None) -> None:
+        self.settings = s = settings
         self.method = method
-        self.tracker = ObstacleTracker(gate_m=1.5, forget_after_s=2.0, predict_cap_s=settings.predict_cap_s,
-                                       gate_growth_mps=settings.reach_speed_mps)
+        #: the landing target (3,): still obstacles' keep-out yields around it (see ``regions``)
+        self.target_m = None if target_m is None else np.asarray(target_m, dtype=float)
+        #: the terrain, estimated from the depth points (hills are ground, not obstacles)
+        self.ground = None if self.target_m is None else GroundMap(self.target_m)
+        self.tracker = ObstacleTracker(gate_m=s.track_gate_m, forget_after_s=s.track_forget_s,
+                                       predict_cap_s=s.predict_cap_s, gate_growth_mps=s.human_max_speed_mps)
         self.pending: list[PendingSpec] = []
+        self._views: dict[float, dict[str, tuple[list[Blob], VisibleFn]]] = {}
+        self.down_half_fov_rad: float | None = None  # known once a downward frame arrived
+        self.last_down_stamp_s: float | None = None
         self.specs_applied = 0
         self.spec_latencies_ms: list[float] = []
         self.version = 0  # bumps when tracks or specs change
@@ -91,14 +138,33 @@ class WorldModel:
 
     # ------------------------------------------------------------------ inputs
     def on_frame(self, frame: CameraFrame) -> None:
+        """Depth blobs of one camera frame, held until :meth:`ingest` merges the instant's views."""
         if frame.depth_m is None:
             return
-        blobs = blobs_from_frame(frame, stride=self.settings.blob_stride, max_range_m=self.settings.max_range_m)
-        self.tracker.update(blobs, frame.header.stamp, visible_fn=frustum_fn(frame, self.settings.max_range_m))
-        self.version += 1
+        s = self.settings
+        pts = backproject(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, s.blob_stride)
+        if self.ground is not None:
+            self.ground.add_points(pts[::GROUND_POINT_STRIDE, ::GROUND_POINT_STRIDE])
+        blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=s.blob_stride,
+                           max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m, points_world=pts,
+                           ground_height_fn=self.ground.height if self.ground is not None else None)
+        if frame.header.camera == "down":
+            self.down_half_fov_rad = half_fov_rad(frame)
+            self.last_down_stamp_s = frame.header.stamp
+        view = (blobs, frustum_fn(frame, s.max_range_m))
+        self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
+
+    def ingest(self, t_s: float) -> None:
+        """Track every frame up to ``t_s``, oldest instant first (downward view, then forward)."""
+        for stamp in sorted(st for st in self._views if st <= t_s + 1e-9):
+            views = self._views.pop(stamp)
+            for camera in sorted(views):  # "down" before "forward": the top view fixes positions
+                blobs, visible = views[camera]
+                self.tracker.update(blobs, stamp, visible_fn=visible, source=camera)
+            self.version += 1
 
     def on_spec(self, msg: SafetySpecMessage) -> None:
-        """Queue the per-object specs for release at ``stamp + latency``."""
+        """Queue the per-object specs for release."""
         if not self.semantic:
             return
         release = msg.stamp + msg.latency_ms / 1e3
@@ -126,65 +192,173 @@ class WorldModel:
         self.pending = [s for s in self.pending if not is_due(s)]
         # One object may be several blobs (a tree's trunk and crown): every track within its
         # footprint takes its spec. One blob may be several objects (a person walking past a
-        # rock): the track takes the most careful spec, never the last one in.
+        # rock): the track takes the most careful spec, never the last one in. A spec reaching a
+        # track only through a big object's footprint (not its own blob) may not make a
+        # person-sized track less careful than it is: a hill or a crown around someone standing
+        # there says nothing about them.
         batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
         for s in due:
             for track in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m)):
+                direct = float(np.linalg.norm(track.centroid_m[:2] - s.position_m[:2])) <= self.settings.spec_match_m
+                spec = s.spec
+                if not direct and self._person_sized(track):
+                    spec = more_careful(self.spec_for(track, t_s), spec)
                 prev = batch.get(track.track_id)
-                batch[track.track_id] = (track, s.spec if prev is None else more_careful(prev[1], s.spec))
+                batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
         for track, spec in batch.values():
             track.meta["spec"] = spec
             track.meta["spec_t"] = t_s
+            track.meta["spec_height_m"] = float(track.hi_m[2] - track.lo_m[2])
             self.specs_applied += 1
             self.version += 1
 
-    # ------------------------------------------------------------------ output
+    # ------------------------------------------------------------------ views
     def spec_for(self, track: TrackedObstacle, t_s: float) -> SafetySpec:
-        spec = track.meta.get("spec")
-        if spec is None or t_s - float(track.meta.get("spec_t", -1e9)) > self.settings.spec_stale_s:
+        """The track's spec, or the most conservative class when it has none or it no longer holds.
+
+        A spec of something that may move (a person, a vehicle, unknown) holds for
+        ``spec_stale_s``; after that the track may be someone else. A static thing's spec holds
+        while the track keeps its shape: if its height changes by more than
+        ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
+        blob) the spec is void. A static thing that moves is caught by :meth:`view`.
+        """
+        spec: SafetySpec | None = track.meta.get("spec")
+        if spec is None:
             return SafetySpec.conservative()
-        return spec  # type: ignore[no-any-return]
+        s = self.settings
+        if spec.is_dynamic or spec.is_human is not False:
+            if t_s - float(track.meta.get("spec_t", -1e9)) > s.spec_stale_s:
+                return SafetySpec.conservative()
+        else:
+            height, was = float(track.hi_m[2] - track.lo_m[2]), float(track.meta.get("spec_height_m", 0.0))
+            if was < s.person_min_height_m <= height - s.spec_height_tolerance_m:  # grew to a person's height
+                return SafetySpec.conservative()
+        return spec
+
+    def _moving(self, tr: TrackedObstacle) -> bool:
+        # Moving = fast enough now AND displaced from where it was first seen: a static object
+        # seen from new angles shifts its visible centroid, but not by metres.
+        s = self.settings
+        origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
+        displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
+        return displaced and float(np.linalg.norm(tr.velocity_mps[:2])) > s.moving_speed_mps
+
+    def _person_sized(self, tr: TrackedObstacle) -> bool:
+        s = self.settings
+        height = float(tr.hi_m[2] - tr.lo_m[2])
+        radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
+        return s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + 0.3 and radius <= s.person_max_radius_m
+
+    def view(self, tr: TrackedObstacle, t_s: float) -> TrackView:
+        """How the method sees one track at ``t_s``.
+
+        Semantic methods trust the spec: a thing the KB calls static is not swept along an
+        apparent motion (the visible surface of a tree shifts as the drone moves around it),
+        unless it is person-sized and moves: then the class was misread and it may be a person.
+        """
+        s, moving = self.settings, self._moving(tr)
+        if self.semantic:
+            spec = self.spec_for(tr, t_s)
+            if spec.is_human is None:
+                person = spec.is_dynamic or moving
+            else:
+                person = spec.is_human or (moving and not spec.is_dynamic and self._person_sized(tr))
+            believed = moving and (spec.is_dynamic or person)
+            return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
+                             human=spec.is_human is True)
+        if self.blind_caution:
+            return TrackView(tr, moving, PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True, True)
+        return TrackView(tr, moving, s.baseline_margin_m, 0.0, "obstacle", moving, moving)
+
+    def views(self, t_s: float) -> list[TrackView]:
+        return [self.view(tr, t_s) for tr in self.tracker.tracks()]
+
+    def _footprint(self, v: TrackView, t_pred_s: float) -> tuple[FloatArray, float, float, float]:
+        """Centre (2,), radius, height and ground z of a track moved ``t_pred_s`` along its velocity.
+
+        A side view that cut the object at the top leaves its height unknown: tall, unless its
+        class bounds it (a person is never taller than :data:`PERSON_MAX_HEIGHT_M`).
+        """
+        tr = v.track
+        shift = tr.velocity_mps[:2] * t_pred_s
+        centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2]) + shift
+        radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
+        height = float(tr.hi_m[2] - tr.lo_m[2])
+        if v.human:
+            height, radius = min(height, PERSON_MAX_HEIGHT_M), max(radius, PERSON_BODY_RADIUS_M)
+        elif tr.touches_top:
+            height = max(height, self.settings.max_altitude_m)
+        return centre, radius, height, float(tr.lo_m[2])
+
+    def _yielding_buffer(self, v: TrackView, centre: FloatArray, radius: float, buffer_m: float,
+                         top_m: float) -> float:
+        """The keep-out buffer (m) of a still thing that cannot be overflown, shrunk so that the
+        landing disc stays outside it: the target is given, and a tree or a wall next to the pad
+        must not make the hover point unreachable. Physical clearance at the pad is
+        :meth:`landing_regions`' job, people the hard limit's."""
+        s = self.settings
+        if self.target_m is None or v.moving or v.possible_person or top_m < self.target_m[2] + s.cruise_altitude_m:
+            return buffer_m
+        d_inf = float(np.max(np.abs(self.target_m[:2] - centre)))  # the box's own (Chebyshev) distance
+        return max(0.0, min(buffer_m, d_inf - radius - s.landing_disc_radius_m))
 
     def regions(self, t_s: float) -> list[UnsafeRegion]:
-        """Unsafe regions at sim time ``t_s`` (dynamic ones swept over the horizon).
+        """The semantic keep-out at ``t_s`` (path and hover point); reads only."""
+        s = self.settings
+        out: list[UnsafeRegion] = []
+        for v in self.views(t_s):
+            tr = v.track
+            dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
+            centre, radius, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
+            top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
+            buffer_m = self._yielding_buffer(v, centre, radius, v.buffer_m, top)
+            boxes = from_obstacle(centre, radius, height, buffer_m, v.z_min,
+                                  velocity_xy=tr.velocity_mps[:2] if v.moving else None,
+                                  horizon_s=s.sweep_horizon_s if v.moving else 0.0,
+                                  obj_id=tr.track_id, label=v.label, z_ground_m=z0)
+            for box in boxes:
+                box.is_dynamic = v.dynamic  # a standing person is still dynamic
+            out += boxes
+        return out
 
-        Reads only: release due specs first with :meth:`release_specs`.
+    def landing_regions(self, t_s: float, duration_s: float) -> list[UnsafeRegion]:
+        """What the landing disc must stay clear of for a descent of ``duration_s`` from ``t_s``.
+
+        Moving things that are not possible people (vehicles, animals) with their buffer swept
+        along their predicted motion; everything else its footprint plus
+        ``landing_clearance_m``. Possible people are the hard limit's (:meth:`people`): its
+        reachable sets already bound where they can be, whatever they do.
         """
         s = self.settings
         out: list[UnsafeRegion] = []
-        for tr in self.tracker.tracks():
-            vel = tr.velocity_mps[:2]
-            # Moving = fast enough now AND displaced from where it was first seen: a static
-            # object seen from new angles shifts its visible centroid, but not by metres.
-            origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
-            displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
-            moving = displaced and float(np.linalg.norm(vel)) > s.moving_speed_mps
-            if self.semantic:
-                spec = self.spec_for(tr, t_s)
-                buffer_m, z_min, label = spec.buffer_m, spec.z_min, spec.label
-                dynamic = spec.is_dynamic or moving
-            elif self.blind_caution:
-                buffer_m, z_min, label, dynamic = PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True
+        for v in self.views(t_s):
+            tr = v.track
+            dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
+            centre, radius, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
+            if v.moving and not v.possible_person:
+                out += from_obstacle(centre, radius, height, v.buffer_m, v.z_min, velocity_xy=tr.velocity_mps[:2],
+                                     horizon_s=duration_s, obj_id=tr.track_id, label=v.label, z_ground_m=z0)
             else:
-                buffer_m, z_min, label, dynamic = s.baseline_margin_m, 0.0, "obstacle", moving
-            # Unseen for a while: extrapolate at most `predict_cap_s`, then let the
-            # uncertainty grow at walking speed (a person out of view may be anywhere near).
+                out += from_obstacle(centre, radius, height, s.landing_clearance_m, 0.0, obj_id=tr.track_id,
+                                     label=v.label, z_ground_m=z0)
+        return out
+
+    def people(self, t_s: float) -> list[PersonHypothesis]:
+        """Possible people observed within ``recent_observation_s`` (the hard limit's input).
+
+        Older tracks are not needed: by the coverage assumption anyone within the downward
+        camera's coverage is detected every frame, so a track not seen lately is outside it and
+        the untracked bound of :func:`~llmland_planner.hard_limit.commit_clearance` covers it.
+        """
+        s = self.settings
+        out: list[PersonHypothesis] = []
+        for v in self.views(t_s):
+            tr = v.track
             age = max(0.0, t_s - tr.last_seen_s)
-            dt_pred = min(age, s.predict_cap_s)
-            if dynamic and (self.semantic or self.blind_caution):  # a person/vehicle may walk in unseen
-                buffer_m += min(s.unseen_growth_mps * (age - dt_pred), s.unseen_growth_max_m)
-            shift = np.array([vel[0], vel[1], 0.0]) * dt_pred
-            lo, hi = tr.lo_m + shift, tr.hi_m + shift
-            centre = 0.5 * (lo + hi)
-            radius = float(0.5 * np.hypot(hi[0] - lo[0], hi[1] - lo[1]))
-            height = float(hi[2] - lo[2])
-            boxes = from_obstacle(
-                centre[:2], radius, height, buffer_m, z_min,
-                velocity_xy=vel if moving else None,
-                horizon_s=s.sweep_horizon_s if moving else 0.0,
-                obj_id=tr.track_id, label=label, z_ground_m=float(lo[2]),
-            )
-            for box in boxes:
-                box.is_dynamic = dynamic  # a standing person is still dynamic
-            out += boxes
+            if not v.possible_person or age > s.recent_observation_s:
+                continue
+            centre, radius, _, _ = self._footprint(v, 0.0)
+            radius = max(radius, PERSON_BODY_RADIUS_M)
+            out.append(PersonHypothesis(tr.track_id, centre, radius, float(np.linalg.norm(tr.velocity_mps[:2])),
+                                        age, v.label))
         return out

@@ -1,72 +1,85 @@
-"""Landing phases: descend only onto a clear disc, climb back when it stops being clear."""
+"""Landing phases: climb above reach, approach, hold until the gate opens, one committed descent,
+climb out when a reachable set is about to touch above the commit height, touchdown."""
 
 import numpy as np
-from llmland_planner.landing import (
-    LandingLogic,
-    Phase,
-    descent_profile,
-    disc_clear,
-    hover_altitude,
-    time_to_touchdown,
-)
+import pytest
+from llmland_planner.hard_limit import PersonHypothesis
+from llmland_planner.landing import LandingLogic, Phase, Surroundings, disc_clear, hover_altitude
 from llmland_planner.regions import UnsafeRegion
 from llmland_planner.settings import PlannerSettings
 
 TARGET = np.array([0.0, 0.0, 0.0])
+S = PlannerSettings()
+STILL = np.zeros(3)
+ABOVE = np.array([0.0, 0.0, S.cruise_altitude_m])
 
 
-def _region(x: float, top: float = 4.7, half: float = 1.0) -> UnsafeRegion:
-    return UnsafeRegion(np.array([x - half, -half, -1.0]), np.array([x + half, half, top]), "p", "person", True)
+def _region(x: float, top: float = 3.0, half: float = 1.0, dynamic: bool = True) -> UnsafeRegion:
+    return UnsafeRegion(np.array([x - half, -half, -1.0]), np.array([x + half, half, top]), "p", "person", dynamic)
 
 
-def test_disc_clear():
+def _around(people: list[PersonHypothesis] | None = None, regions: list[UnsafeRegion] | None = None,
+            landing: list[UnsafeRegion] | None = None, coverage_m: float = 7.0) -> Surroundings:
+    return Surroundings(regions or [], people or [], coverage_m, lambda _d: landing or [])
+
+
+def _person(x: float, speed: float = 0.0, age: float = 0.0) -> PersonHypothesis:
+    return PersonHypothesis("p", np.array([x, 0.0]), 0.3, speed, age, "person")
+
+
+def test_disc_clear() -> None:
     assert disc_clear(TARGET[:2], 0.8, [_region(3.0)])
     assert not disc_clear(TARGET[:2], 0.8, [_region(1.5)])
 
 
-def test_hover_altitude_rises_over_a_region_covering_the_target():
-    s = PlannerSettings(cruise_altitude_m=3.0)
-    assert hover_altitude(TARGET, [], s) == 3.0
-    assert hover_altitude(TARGET, [_region(0.5, top=4.7)], s) == 5.2
+def test_hover_altitude_rises_over_a_region_covering_the_target_and_stays_in_the_workspace() -> None:
+    assert hover_altitude(TARGET, [], S) == S.cruise_altitude_m
+    assert hover_altitude(TARGET, [_region(0.5, top=5.0)], S) == 5.5
+    assert hover_altitude(TARGET, [_region(0.5, top=30.0)], S) < S.max_altitude_m
 
 
-def test_phases_hold_scan_descend_abort_touchdown():
-    s = PlannerSettings(hold_clear_s=0.5, scan_yaw_rate_rps=1.0, scan_sweep_rad=2.0, reach_speed_mps=1.5)
-    logic = LandingLogic(TARGET, s)
-    above, still = np.array([0.0, 0.0, 3.0]), np.zeros(3)
-    phase, goal = logic.update(np.array([8.0, 0.0, 3.0]), still, [], 0.0)
-    assert phase == Phase.APPROACH and np.allclose(goal, above)
-    assert logic.update(above, still, [_region(1.5)], 1.0)[0] == Phase.HOLD  # blocked disc
-    assert logic.update(above, still, [], 2.0)[0] == Phase.HOLD  # clear, but not scanned all around yet
-    assert logic.update(above, still, [], 2.6)[0] == Phase.HOLD
-    assert logic.update(above, still, [], 3.0)[0] == Phase.DESCEND  # 2 rad swept at 1 rad/s
-    phase, goal = logic.update(np.array([0.0, 0.0, 1.5]), still, [_region(0.5)], 3.5)
-    assert phase == Phase.HOLD and goal[2] > 4.7  # intrusion: back up above the region
-    logic.phase = Phase.DESCEND
-    assert logic.update(np.array([0.0, 0.0, 0.3]), still, [_region(0.5)], 4.0)[0] == Phase.DESCEND  # committed
-    assert logic.update(np.array([0.0, 0.0, 0.1]), still, [], 4.1)[0] == Phase.TOUCHDOWN
+def test_cruise_below_everyones_reach_is_refused() -> None:
+    with pytest.raises(ValueError, match="cruise_altitude_m"):
+        LandingLogic(TARGET, PlannerSettings(cruise_altitude_m=2.5))
 
 
-def test_descent_waits_until_nobody_can_walk_in_before_touchdown():
-    """A person 6 m away (region edge 2.7 m from the pad) is clear of the disc now, but can
-    walk into it during the ~2.7 s descent from 3 m: no descent until they are farther."""
-    s = PlannerSettings(hold_clear_s=0.0, scan_sweep_rad=0.0, reach_speed_mps=1.5)
-    logic = LandingLogic(TARGET, s)
-    above, still = np.array([0.0, 0.0, 3.0]), np.zeros(3)
-    near = _region(6.0, half=3.3)
-    assert disc_clear(TARGET[:2], s.landing_disc_radius_m, [near])
-    logic.phase = Phase.HOLD
-    assert logic.update(above, still, [near], 0.0)[0] == Phase.HOLD
-    assert logic.update(above, still, [_region(10.0, half=3.3)], 0.1)[0] == Phase.DESCEND
-    static = UnsafeRegion(near.lo, near.hi, "r", "rock", False)  # a rock does not walk
-    logic2 = LandingLogic(TARGET, s)
-    logic2.phase = Phase.HOLD
-    assert logic2.update(above, still, [static], 0.0)[0] == Phase.DESCEND
+def test_climbs_above_reach_before_flying_anywhere() -> None:
+    logic = LandingLogic(TARGET, S)
+    phase, goal = logic.update(np.array([8.0, 0.0, 2.0]), STILL, 0.0, _around())
+    assert phase == Phase.APPROACH and np.allclose(goal, [8.0, 0.0, S.cruise_altitude_m])
+    phase, goal = logic.update(np.array([8.0, 0.0, 3.4]), STILL, 1.0, _around())
+    assert np.allclose(goal, ABOVE)
 
 
-def test_descent_profile_is_fast_high_and_soft_at_the_ground():
-    s = PlannerSettings(descent_speed_mps=1.2, descent_min_speed_mps=0.3, descent_brake_mps2=0.8)
-    z, vz = descent_profile(3.0, 0.0, 0.05, 200, s)
-    assert vz[0] == -1.2 and np.all(np.diff(z) <= 0.0) and z[-1] == 0.03 and vz[-1] == 0.0
-    assert -0.5 < vz[np.searchsorted(-z, -0.12)] < 0.0  # slow near the ground
-    assert 2.0 < time_to_touchdown(3.0, s) < 3.5
+def test_hold_descend_climb_out_commit_touchdown() -> None:
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    assert logic.update(ABOVE, STILL, 0.0, _around([_person(3.0)]))[0] == Phase.HOLD  # someone within reach
+    assert logic.last_gate is not None and not logic.last_gate.clearance.safe
+    assert logic.update(ABOVE, STILL, 0.1, _around([_person(9.0)]))[0] == Phase.DESCEND
+    # a runner (faster than assumed) appears close while the vehicle is still high: climb out
+    phase, goal = logic.update(np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -2.5]), 0.6,
+                               _around([_person(2.5, speed=3.0)]))
+    assert phase == Phase.CLIMB_OUT and goal[2] == pytest.approx(S.cruise_altitude_m)
+    logic.phase = Phase.DESCEND  # below the commit height finishing is the way out of reach
+    low = np.array([0.0, 0.0, 0.5])
+    assert logic.update(low, np.array([0.0, 0.0, -0.8]), 1.0, _around([_person(2.5, speed=3.0)]))[0] == Phase.DESCEND
+    assert logic.update(np.array([0.0, 0.0, 0.1]), STILL, 1.2, _around())[0] == Phase.TOUCHDOWN
+
+
+def test_no_descent_without_coverage_or_onto_a_blocked_disc() -> None:
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    assert logic.update(ABOVE, STILL, 0.0, _around(coverage_m=0.0))[0] == Phase.HOLD  # unseen people may be near
+    assert logic.update(ABOVE, STILL, 0.1, _around(landing=[_region(1.0, dynamic=False)]))[0] == Phase.HOLD
+    assert logic.update(ABOVE, STILL, 0.2, _around(landing=[_region(4.0, dynamic=False)]))[0] == Phase.DESCEND
+
+
+def test_a_standing_person_needs_less_room_than_a_walking_one() -> None:
+    logic = LandingLogic(TARGET, S)
+    around = _around()
+    standing = logic.gate(S.cruise_altitude_m, 0.0, _around([_person(5.3)])).clearance.margin_m
+    walking = logic.gate(S.cruise_altitude_m, 0.0, _around([_person(5.3, speed=1.4)])).clearance.margin_m
+    stale = logic.gate(S.cruise_altitude_m, 0.0, _around([_person(5.3, age=0.5)])).clearance.margin_m
+    assert standing > walking and standing > stale
+    assert logic.gate(S.cruise_altitude_m, 0.0, around).open

@@ -133,10 +133,11 @@ class SimService:
         if rrd is not None or s.rerun_connect:
             self.recorder = SimRecorder(mission.episode_id, rrd=Path(rrd) if rrd else None,
                                         connect_url=s.rerun_connect)
-        due = Schedule(s.camera_hz, s.truth_hz)
+        due = Schedule(s.camera_hz, s.truth_hz, s.down_camera_hz)
         solve_ms: list[float] = []
         wall0 = time.perf_counter()
         camera_seq: int | None = None
+        down_seq: int | None = None
         while not sim.done and not self.stop.is_set():
             if due.truth(sim.t_s):
                 self._publish_truth()
@@ -146,7 +147,10 @@ class SimService:
             if due.camera(sim.t_s):
                 with self.walls.time("camera"):
                     camera_seq = self._publish_frame(mission)
-            self._publish_state(mission, camera_seq)
+            if due.down_camera(sim.t_s):
+                with self.walls.time("camera"):
+                    down_seq = self._publish_down_frame()
+            self._publish_state(mission, camera_seq, down_seq)
             cmd = self._await_command(mission, wall0)
             if cmd is not None and cmd.tick_ms is not None and cmd.tick_ms > 1e3 / s.ctrl_hz:
                 sim.deadline_misses += 1  # the controller overran its control period
@@ -180,12 +184,18 @@ class SimService:
             self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
         return frame.header.seq
 
-    def _publish_state(self, mission: MissionGoal, camera_seq: int | None) -> None:
-        """This tick's state, with the specs in effect at this tick (lockstep)."""
+    def _publish_down_frame(self) -> int:
+        frame = self.sim.render_frame(camera="down")
+        self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        return frame.header.seq
+
+    def _publish_state(self, mission: MissionGoal, camera_seq: int | None, down_seq: int | None) -> None:
+        """This tick's state, with the frames and specs in effect at this tick (lockstep)."""
         sim = self.sim
         released = self.clock.released_upto_s(sim.t_s) if self.clock is not None else None
         lockstep = mission.clock == "lockstep"
-        state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None, specs_released_upto_s=released)
+        state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None,
+                                  down_camera_seq=down_seq if lockstep else None, specs_released_upto_s=released)
         self.bus.publish(self.k[Topic.STATE], state, express=True)
         if self.recorder:
             self.recorder.state(state)
@@ -254,10 +264,10 @@ class WallTimes:
 class Schedule:
     """Which periodic publications are due at a sim time (rates in Hz; 0 disables)."""
 
-    def __init__(self, camera_hz: float, truth_hz: float) -> None:
-        self._period = {"camera": 1.0 / camera_hz if camera_hz > 0 else math.inf,
-                        "truth": 1.0 / truth_hz if truth_hz > 0 else math.inf}
-        self._next = {"camera": 0.0, "truth": 0.0}
+    def __init__(self, camera_hz: float, truth_hz: float, down_camera_hz: float = 0.0) -> None:
+        rates = {"camera": camera_hz, "truth": truth_hz, "down_camera": down_camera_hz}
+        self._period = {k: 1.0 / hz if hz > 0 else math.inf for k, hz in rates.items()}
+        self._next = {k: 0.0 for k in rates}
 
     def _due(self, what: str, t_s: float) -> bool:
         if t_s + 1e-9 < self._next[what]:
@@ -270,6 +280,9 @@ class Schedule:
 
     def truth(self, t_s: float) -> bool:
         return self._due("truth", t_s)
+
+    def down_camera(self, t_s: float) -> bool:
+        return self._due("down_camera", t_s)
 
 
 def main() -> None:

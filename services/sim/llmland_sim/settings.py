@@ -22,6 +22,13 @@ class SimSettings(BaseSettings):
     camera_height: int = 384
     #: forward-down camera: pitch below the body x axis (90° would look straight down)
     camera_pitch_down_deg: float = 60.0
+    #: downward landing camera (RGB-D, straight down, wide angle): published on
+    #: ``sim/camera_down`` at this rate (0 disables), rendered with the forward camera's frames
+    down_camera_hz: float = 5.0
+    down_camera_size: int = 160
+    #: full field of view (deg) of the square downward image: 140° sees the ground up to
+    #: 2.7 × the height around the vehicle (the planner's coverage argument, DESIGN §6)
+    down_camera_fov_deg: float = 140.0
     renderer: Literal["auto", "tiny", "egl"] = "auto"
     truth_hz: float = 10.0
     gui: bool = False

@@ -31,6 +31,7 @@ from .scoring import EpisodeScore
 from .settings import SimSettings
 from .vehicle import DEFAULT_PARAMS, QuadParams, Quadrotor, ReferencePositionController
 from .world import World, WorldObject, build_world
+from .world.scenarios import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +42,10 @@ TOUCHDOWN_SPEED_MPS = 0.35
 TOUCHDOWN_DWELL_S = 0.3
 #: Hitting the ground faster than this (m/s) is a crash.
 CRASH_SPEED_MPS = 2.5
+#: The downward camera looks straight down (optical axis = body -z) from just under the
+#: body, so neither the body nor the arms are in view.
+DOWN_CAMERA_PITCH_DEG = 90.0
+DOWN_CAMERA_MOUNT_M = (0.0, 0.0, -0.04)
 
 
 @dataclass
@@ -60,7 +65,9 @@ class Simulation:
         self.world: World | None = None
         self.quad: Quadrotor | None = None
         self.camera: RgbdCamera | None = None
+        self.down_camera: RgbdCamera | None = None
         self.mission: MissionGoal | None = None
+        self.scenario: Scenario | None = None
         self.score: EpisodeScore | None = None
         self._failsafe = ReferencePositionController(params)
         self._hold_target: np.ndarray | None = None
@@ -83,12 +90,17 @@ class Simulation:
         p.setGravity(0, 0, -9.81, physicsClientId=self.client)
         p.setTimeStep(1.0 / s.physics_hz, physicsClientId=self.client)
         self.world = build_world(self.client, mission.world, mission.seed, n_pedestrians=mission.n_pedestrians)
+        self.scenario = Scenario(mission.scenario, self.world, mission.seed) if mission.scenario else None
         start = np.asarray(mission.start_m if mission.start_m is not None else self.world.start_m, dtype=float)
         if mission.target_m is not None:
             self.world.target_m = np.asarray(mission.target_m, dtype=float)
         self.quad_start_m = start
         self.quad = Quadrotor(self.client, self.params, start_pos=tuple(start), start_yaw=0.0)
         self.quad.set_command(np.zeros(3), self.params.hover_thrust_n)
+        if s.down_camera_hz > 0:
+            self.down_camera = RgbdCamera(self.client, width=s.down_camera_size, height=s.down_camera_size,
+                                          hfov_deg=s.down_camera_fov_deg, pitch_down_deg=DOWN_CAMERA_PITCH_DEG,
+                                          mount_offset_m=DOWN_CAMERA_MOUNT_M, renderer=s.renderer)
         if s.camera_hz > 0:
             self.camera = RgbdCamera(self.client, width=s.camera_width, height=s.camera_height,
                                      pitch_down_deg=s.camera_pitch_down_deg, renderer=s.renderer)
@@ -147,6 +159,9 @@ class Simulation:
             p.stepSimulation(physicsClientId=self.client)
             self.t_s += dt
         self.seq += 1
+        if self.scenario is not None:
+            st = self.quad.state()
+            self.scenario.on_tick(st.pos_m, st.vel_mps)
         self._score_tick()
         if self.mission is not None and self.t_s >= self.mission.timeout_s:
             self.done = True
@@ -187,8 +202,8 @@ class Simulation:
         return centre - np.array([0.0, 0.0, obj.size_m[2] / 2.0])
 
     # ------------------------------------------------------------------ messages
-    def vehicle_state(self, *, camera_seq: int | None = None, specs_released_upto_s: float | None = None
-                      ) -> VehicleState:
+    def vehicle_state(self, *, camera_seq: int | None = None, down_camera_seq: int | None = None,
+                      specs_released_upto_s: float | None = None) -> VehicleState:
         assert self.quad is not None and self.mission is not None and self.world is not None
         st = self.quad.state()
         height = st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1])
@@ -205,6 +220,7 @@ class Simulation:
             collided=bool(self.score and self.score.collisions),
             episode_id=self.mission.episode_id,
             camera_seq=camera_seq,
+            down_camera_seq=down_camera_seq,
             specs_released_upto_s=specs_released_upto_s,
         )
 
@@ -213,11 +229,15 @@ class Simulation:
         frame = self.render_frame()
         return encode_frame(frame.header, frame.rgb, frame.depth_m)
 
-    def render_frame(self, *, perceive: bool = True) -> CameraFrame:
-        """Render the RGB-D camera: typed header + pixel arrays (``perceive``: see the header)."""
-        assert self.quad is not None and self.camera is not None and self.mission is not None
+    def render_frame(self, *, perceive: bool = True, camera: str = "forward") -> CameraFrame:
+        """Render an RGB-D camera (``forward`` or ``down``): typed header + pixel arrays.
+
+        ``perceive``: see :class:`CameraFrameHeader` (the downward camera is never perceived).
+        """
+        cam = self.camera if camera == "forward" else self.down_camera
+        assert self.quad is not None and cam is not None and self.mission is not None
         st = self.quad.state()
-        r = self.camera.render(st.pos_m, st.quat_xyzw, with_seg=False)
+        r = cam.render(st.pos_m, st.quat_xyzw, with_seg=False)
         k = r.intrinsics
         header = CameraFrameHeader(
             drone_id=self.settings.drone_id,
@@ -229,7 +249,8 @@ class Simulation:
             T_world_camera=[float(x) for x in np.asarray(r.T_world_camera).reshape(-1)],
             vehicle_position_m=vec3(st.pos_m),
             episode_id=self.mission.episode_id,
-            perceive=perceive,
+            camera="forward" if camera == "forward" else "down",
+            perceive=perceive and camera == "forward",
         )
         return CameraFrame(header=header, rgb=r.rgb, depth_m=r.depth_m.astype(np.float32))
 

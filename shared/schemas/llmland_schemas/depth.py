@@ -73,6 +73,9 @@ class Blob:
     n_points: int
     bbox_px: tuple[int, int, int, int]
     footprint_radius_m: float
+    #: the cluster reaches the top row of the image: the object may extend above the view,
+    #: so ``hi_m[2]`` is only a lower bound of its top
+    touches_top: bool = False
 
 
 def backproject(
@@ -149,6 +152,7 @@ def find_blobs(
     ground_tol_m: float = 0.15,
     cluster_gap_m: float = 0.6,
     ground_height_fn: GroundHeightFn | None = None,
+    points_world: FloatArray | None = None,
 ) -> list[Blob]:
     """Cluster the non-ground points of a depth image into obstacles.
 
@@ -157,10 +161,11 @@ def find_blobs(
     subsampled pixel grid, two 4-neighbours being joined when their 3D distance is below
     ``cluster_gap_m``. Clusters with fewer than ``min_points`` subsampled points are dropped.
     Returns blobs sorted by decreasing ``n_points`` (``blob_id`` is the index in that list).
-    Note the neighbour spacing grows with range (``stride * range / fx``): keep
+    ``points_world``: this image's :func:`backproject` with the same ``stride``, when the
+    caller already has it. Note the neighbour spacing grows with range (``stride * range / fx``): keep
     ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
     """
-    pts = backproject(depth_m, intrinsics, T_world_camera, stride)
+    pts = backproject(depth_m, intrinsics, T_world_camera, stride) if points_world is None else points_world
     cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
     with np.errstate(invalid="ignore"):
         near = np.sum((pts - cam) ** 2, axis=-1) <= max_range_m * max_range_m
@@ -221,6 +226,7 @@ def find_blobs(
                     int(min(v1[k] + stride, height_px)),
                 ),
                 footprint_radius_m=float(radius[k]),
+                touches_top=bool(v0[k] == 0),
             )
         )
     log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)

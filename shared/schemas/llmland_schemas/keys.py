@@ -17,6 +17,8 @@ class Topic(StrEnum):
 
     STATE = "sim/state"
     CAMERA = "sim/camera"
+    #: the downward (landing) camera: depth for the planner's tracker, never captioned
+    CAMERA_DOWN = "sim/camera_down"
     TRUTH = "sim/truth"
     SCENE = "vle/scene"
     SPEC = "reasoner/spec"

@@ -70,6 +70,8 @@ class VehicleState(Envelope):
     #: lockstep: ``seq`` of the newest camera frame published before this state; a consumer
     #: that tracks frames (the planner) processes that frame before acting on this state
     camera_seq: NonNegativeInt | None = None
+    #: lockstep: the same for the downward camera (``sim/camera_down``)
+    down_camera_seq: NonNegativeInt | None = None
     #: lockstep: perception results (specs) of frames stamped at or before this time (s) take
     #: effect from this tick on (DESIGN §4: the sim owns the clock and the latency model).
     #: None: no spec yet in lockstep, or realtime (specs apply at ``stamp + latency``)
@@ -121,6 +123,8 @@ class CameraFrameHeader(Envelope):
     T_world_camera: Annotated[list[FiniteFloat], Field(min_length=16, max_length=16)]
     vehicle_position_m: Vec3 | None = None
     episode_id: str = ""
+    #: which body-mounted camera: the forward-down one (captioned) or the downward one
+    camera: Literal["forward", "down"] = "forward"
     #: False: this frame is for depth tracking only; perception (VLE → reasoner) skips it.
     #: In lockstep the sim sends a frame for perception only when perception is free (§4).
     perceive: bool = True
@@ -209,6 +213,9 @@ class SafetySpec(Strict):
     """The paper's two fields plus what a planner and an operator need."""
 
     is_dynamic: bool
+    #: a person (True), not one (False), or unknown (None: e.g. the LLM-only baseline, which
+    #: has no knowledge base). The planner's hard limit (DESIGN §6) treats unknown as possible.
+    is_human: bool | None = None
     z_min: NonNegFloat
     buffer_m: NonNegFloat
     label: str = "unknown"
@@ -228,6 +235,7 @@ class SafetySpec(Strict):
         """The most conservative class: dynamic, the largest buffer and altitude floor."""
         return cls(
             is_dynamic=True,
+            is_human=None,
             z_min=CONSERVATIVE_Z_MIN_M,
             buffer_m=CONSERVATIVE_BUFFER_M,
             label="unknown",
@@ -322,6 +330,9 @@ class MissionGoal(Envelope):
     perception: PerceptionSource = "none"
     #: lockstep: when a spec takes effect, ``frame stamp + latency`` (DESIGN §4)
     latency_model: Annotated[str, Field(pattern=LATENCY_MODEL_PATTERN)] = "measured"
+    #: a scripted test scenario on top of the seeded world, e.g. ``walk-in:5.5,1.5`` (a person
+    #: standing 5.5 m from the target walks to it at up to 1.5 m/s once the final descent starts)
+    scenario: Annotated[str, Field(pattern=r"^walk-in:\d+(\.\d+)?,\d+(\.\d+)?$")] | None = None
     #: Where the sim records this episode to Rerun (a path on the sim's host), if at all.
     rrd_path: str | None = None
 

@@ -1,0 +1,79 @@
+"""A 2.5-D terrain estimate from depth points, so hills are ground and not obstacles.
+
+The planner is never told the terrain. Every depth frame's points vote for the lowest height
+seen in each ``cell_m`` cell of a grid centred on the landing target; the ground under a point
+is the lower envelope ``g(x) = min_j (z_min_j + max_slope · |x − x_j|)`` over cells within
+``window_m`` (a grey erosion with a cone), so a cell whose lowest point is an object's top (a
+car roof seen from above) takes the height of the ground seen next to it, while gentle terrain
+(slopes below ``max_slope``) keeps its own height. Unobserved cells fall back to the target's
+ground height. Points above ``g + tolerance`` are obstacle points (``llmland_schemas.depth``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .dynamics import FloatArray
+
+#: grid cell (m), half size of the mapped square (m) and erosion window radius (m)
+CELL_M = 1.0
+HALF_SIZE_M = 40.0
+WINDOW_M = 3.0
+#: steepest terrain the estimate follows (rise per run); steeper rises are obstacles
+MAX_SLOPE = 0.25
+
+
+class GroundMap:
+    """Lowest heights seen per cell around the target, and the ground envelope from them."""
+
+    def __init__(self, centre_m: FloatArray, cell_m: float = CELL_M, half_size_m: float = HALF_SIZE_M,
+                 window_m: float = WINDOW_M, max_slope: float = MAX_SLOPE) -> None:
+        self.centre = np.asarray(centre_m, dtype=float)
+        self.cell = cell_m
+        self.n = int(round(2.0 * half_size_m / cell_m))
+        self.origin = self.centre[:2] - half_size_m
+        self._zmin = np.full((self.n, self.n), np.inf)
+        r = int(round(window_m / cell_m))
+        ii, jj = np.mgrid[-r:r + 1, -r:r + 1]
+        dist = np.hypot(ii, jj) * cell_m
+        self._footprint = dist <= window_m + 1e-9
+        self._cone = -max_slope * dist  # erosion subtracts the structure: min(z + slope · d)
+        self._ground = np.full((self.n, self.n), self.centre[2])
+        self._dirty = False
+
+    def _cells(self, x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+        i = np.floor((x - self.origin[0]) / self.cell).astype(np.int64)
+        j = np.floor((y - self.origin[1]) / self.cell).astype(np.int64)
+        inside = (i >= 0) & (i < self.n) & (j >= 0) & (j < self.n)
+        return i, j, inside
+
+    def add_points(self, points_world: FloatArray) -> None:
+        """Fold points ``(..., 3)`` (NaN where invalid) into the per-cell minima."""
+        p = np.asarray(points_world, dtype=float).reshape(-1, 3)
+        p = p[np.all(np.isfinite(p), axis=1)]
+        if p.size == 0:
+            return
+        i, j, inside = self._cells(p[:, 0], p[:, 1])
+        np.minimum.at(self._zmin, (i[inside], j[inside]), p[inside, 2])
+        self._dirty = True
+
+    def _refresh(self) -> None:
+        if not self._dirty:
+            return
+        observed = np.isfinite(self._zmin)
+        z = np.where(observed, self._zmin, 1e6)
+        env = ndimage.grey_erosion(z, footprint=self._footprint, structure=self._cone, mode="nearest")
+        self._ground = np.where(env < 1e5, env, self.centre[2])
+        self._dirty = False
+
+    def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
+        """Ground height (m) under world points (vectorised over equal shapes)."""
+        self._refresh()
+        xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        finite = np.isfinite(xa) & np.isfinite(ya)
+        i, j, inside = self._cells(np.where(finite, xa, 0.0), np.where(finite, ya, 0.0))
+        out = np.full(xa.shape, self.centre[2])
+        ok = inside & finite
+        out[ok] = self._ground[i[ok], j[ok]]
+        return out

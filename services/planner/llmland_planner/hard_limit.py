@@ -1,0 +1,129 @@
+"""The hard limit (DESIGN §6/§8): no person ever within 1 m of the vehicle — a reachable-set gate.
+
+The vehicle is within a person's reach only below ``head height + 1 m``; the planner's hover
+and cruise altitudes stay above :data:`REACH_CEILING_M`, so only the final descent (and a
+climb-out from it) can come near anyone. Before the vehicle commits to that descent, and at
+every tick during it, :func:`commit_clearance` checks that **every person who could be near —
+tracked or not — stays farther than 1 m from the landing point until touchdown is complete**:
+
+- a tracked possible person ``i`` (observed at age ``a_i`` s ago at ``c_i`` with footprint radius
+  ``r_i`` and speed ``s_i``) can be anywhere within ``|x − c_i| ≤ r_i + R(a_i + T, s_i)`` by the
+  end ``T`` of the descent, where :meth:`HumanMotionBounds.reach_m` integrates the speed bound;
+- anyone not tracked is, by the coverage assumption, outside the downward camera's coverage
+  radius ``R_cov`` (everyone inside it is detected every frame), so can close in by at most
+  ``R(T + frame period, v_max)``;
+- the landing point is the vehicle's horizontal position at touchdown, within ``xy_margin_m``.
+
+Assumptions (what the guarantee rests on): people's speed ≤ ``max_speed_mps`` (ISO 13855:2010
+sizes separation distances for a walking approach speed of 1.6 m/s), their speed grows by at
+most ``step_speed_mps`` at once (a first step) plus ``max_accel_mps2`` thereafter from the
+tracked speed (tracking error ≤ ``speed_error_mps``), heads ≤ :data:`PERSON_MAX_HEIGHT_M`;
+every person within ``R_cov`` is detected in every downward frame (no occlusion from above);
+people are classified as possible people (an unknown or stale class counts as one); the
+vehicle follows its descent profile within ``time_margin_s`` and ``xy_margin_m``. If one of
+them fails (a runner, a missed detection), the per-tick check sees the reachable set touch and
+the vehicle climbs out while that is the shorter way out of reach (``LandingLogic``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .dynamics import FloatArray
+
+#: The scored hard limit (DESIGN §8): distance (m) from the vehicle to a person's body axis.
+HARD_LIMIT_M = 1.0
+#: Tallest person assumed (m, head height above their feet; adult stature, 99.9th percentile < 2 m).
+PERSON_MAX_HEIGHT_M = 2.0
+#: A person's body axis lies within this distance (m) of any part of their body seen.
+PERSON_BODY_RADIUS_M = 0.3
+#: Above this height over the ground (m) nobody can be within the hard limit.
+REACH_CEILING_M = PERSON_MAX_HEIGHT_M + HARD_LIMIT_M
+
+
+@dataclass(frozen=True)
+class HumanMotionBounds:
+    """How fast a person may close in (the assumptions of the hard limit)."""
+
+    #: ISO 13855:2010, walking approach speed used to size separation distances (m/s)
+    max_speed_mps: float = 1.6
+    #: speed gained at once by a standing person's first step (m/s)
+    step_speed_mps: float = 0.5
+    #: acceleration bound after that (m/s²; gait initiation reaches walking speed within ~1 s)
+    max_accel_mps2: float = 2.0
+    #: error of the tracked speed (m/s)
+    speed_error_mps: float = 0.3
+
+    def reach_m(self, horizon_s: float, speed_mps: float | None = None) -> float:
+        """Farthest horizontal distance (m) a person can cover in ``horizon_s``.
+
+        ``speed_mps``: tracked speed (None: unknown, i.e. already at ``max_speed_mps``).
+        ``∫₀^τ min(s₀ + a·t, v_max) dt`` with ``s₀ = speed + error + step`` (capped at v_max).
+        """
+        tau = max(0.0, horizon_s)
+        v_max, a = self.max_speed_mps, self.max_accel_mps2
+        s0 = v_max if speed_mps is None else min(v_max, speed_mps + self.speed_error_mps + self.step_speed_mps)
+        t_cap = (v_max - s0) / a if a > 0 else math.inf
+        if tau <= t_cap:
+            return s0 * tau + 0.5 * a * tau * tau
+        return s0 * t_cap + 0.5 * a * t_cap * t_cap + v_max * (tau - t_cap)
+
+
+@dataclass(frozen=True)
+class PersonHypothesis:
+    """A tracked obstacle that may be a person (world frame; m, s, m/s)."""
+
+    track_id: str
+    centre_xy: FloatArray
+    radius_m: float
+    speed_mps: float
+    age_s: float  # time since it was last observed
+    label: str = ""
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """Worst margin (m) over people to the hard limit by the end of a manoeuvre; ≥ 0 is safe."""
+
+    margin_m: float
+    track_id: str  # the binding person ("" for the untracked bound, "-" for nobody)
+
+    @property
+    def safe(self) -> bool:
+        return self.margin_m >= 0.0
+
+
+def coverage_radius_m(height_m: float, half_fov_rad: float, tilt_rad: float = 0.0,
+                      visible_height_m: float = 1.0) -> float:
+    """Horizontal radius (m) around the vehicle within which the downward camera sees a person.
+
+    A person is seen when their body below ``visible_height_m`` is in view: out to
+    ``(h − visible_height) · tan(half_fov − tilt)``; 0 when the vehicle is lower than that.
+    """
+    ang = half_fov_rad - abs(tilt_rad)
+    if ang <= 0.0 or height_m <= visible_height_m:
+        return 0.0
+    return (height_m - visible_height_m) * math.tan(min(ang, math.radians(85.0)))
+
+
+def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], duration_s: float,
+                     bounds: HumanMotionBounds, *, coverage_m: float, frame_period_s: float,
+                     xy_margin_m: float, hard_limit_m: float = HARD_LIMIT_M) -> Clearance:
+    """Margin to the hard limit if the vehicle is at ``landing_xy`` until ``duration_s`` from now.
+
+    Tracked people: ``|landing − c| − r − R(age + T, speed)``; untracked people:
+    ``R_cov − R(T + frame period)`` (unknown speed). Each minus ``xy_margin_m`` and the limit.
+    """
+    untracked = coverage_m - bounds.reach_m(duration_s + frame_period_s) - xy_margin_m - hard_limit_m
+    worst = Clearance(untracked, "")
+    p = np.asarray(landing_xy, dtype=float)[:2]
+    for person in people:
+        dist = float(np.linalg.norm(p - person.centre_xy[:2]))
+        reach = bounds.reach_m(person.age_s + duration_s, person.speed_mps)
+        margin = dist - person.radius_m - reach - xy_margin_m - hard_limit_m
+        if margin < worst.margin_m:
+            worst = Clearance(margin, person.track_id)
+    return worst
