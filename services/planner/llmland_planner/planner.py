@@ -50,6 +50,8 @@ log = logging.getLogger(__name__)
 CORRIDOR_EXIT_M = 0.3
 #: The MPC's soft floor sits this far (m) below the target: the ground, not the goal.
 GROUND_FLOOR_MARGIN_M = 0.2
+#: While holding, why the gate is closed is logged this often (s).
+GATE_LOG_PERIOD_S = 5.0
 #: Paths and holds keep this much (m) above the reach ceiling.
 REACH_FLOOR_MARGIN_M = 0.1
 #: A downward frame older than this (s) gives no coverage (the camera is off or stalled).
@@ -109,6 +111,8 @@ class Planner:
         self.failed_searches = 0
         self._force_replan = False
         self._last_t = 0.0
+        self._logged_phase: Phase | None = None
+        self._logged_t = -1e9
 
     @property
     def _lockstep(self) -> bool:
@@ -130,6 +134,7 @@ class Planner:
             self.active, self._job = None, None
             self._last_replan_s = -1e9
             self._last_t = 0.0
+            self._logged_phase, self._logged_t = None, -1e9
             d = np.subtract(mission.target_m, mission.start_m)[:2]
             self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
             self.mpc.reset()
@@ -168,6 +173,7 @@ class Planner:
             self.world.release_specs(t, state.specs_released_upto_s, lockstep=self._lockstep)
             around = self._surroundings(t, pos, float(np.hypot(euler[0], euler[1])))
         phase, goal = self.landing.update(pos, vel, t, around)
+        self._log_phase(phase, t, around)
         regions = around.regions
         self._steer_yaw(phase, t, pos, goal, around)
         snapshot = None
@@ -196,6 +202,27 @@ class Planner:
         mode = phase.value if res.ok else "fallback"
         return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
                           1e3 * (time.perf_counter() - t_tick), snapshot)
+
+    def _log_phase(self, phase: Phase, t: float, around: Surroundings) -> None:
+        """Phase changes, and every ``GATE_LOG_PERIOD_S`` while holding why the gate is closed."""
+        gate = self.landing.last_gate if self.landing else None
+        changed = phase != self._logged_phase
+        if not changed and not (phase == Phase.HOLD and t - self._logged_t >= GATE_LOG_PERIOD_S):
+            return
+        self._logged_phase, self._logged_t = phase, t
+        if gate is None:
+            log.info("t=%.1f %s", t, phase.value)
+            return
+        who = next((p for p in around.people if p.track_id == gate.clearance.track_id), None)
+        if gate.clearance.track_id == "":
+            binding = f"untracked people (coverage {around.coverage_m:.1f} m)"
+        elif who is not None:
+            dist = float(np.linalg.norm(who.centre_xy[:2] - self.landing.target_m[:2]))
+            binding = f"{who.label or 'unknown'} {who.track_id} at {dist:.1f} m"
+        else:
+            binding = "nobody"
+        log.info("t=%.1f %s: hard-limit margin %.2f m (%s), landing disc %s, %d possible people", t, phase.value,
+                 gate.clearance.margin_m, binding, "clear" if gate.disc_clear else "blocked", len(around.people))
 
     def _reach_floor(self, pos: FloatArray) -> float:
         """Lowest altitude (m) for paths and holds outside the final descent: above everyone's

@@ -259,10 +259,10 @@ class WorldModel:
         s, moving = self.settings, self._moving(tr)
         if self.semantic:
             spec = self.spec_for(tr, t_s)
-            if spec.is_human is None:
-                person = spec.is_dynamic or moving
-            else:
-                person = spec.is_human or (moving and not spec.is_dynamic and self._person_sized(tr))
+            if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
+                person = spec.is_human is not False
+            else:  # a static class: a misread only if it is person-sized and moves
+                person = bool(spec.is_human) or (moving and self._person_sized(tr))
             believed = moving and (spec.is_dynamic or person)
             return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
                              human=spec.is_human is True)
