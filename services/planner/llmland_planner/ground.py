@@ -7,9 +7,15 @@ is the lower envelope ``g(x) = min_j (z_min_j + max_slope · |x − x_j|)`` over
 car roof seen from above) takes the height of the ground seen next to it, while gentle terrain
 (slopes below ``max_slope``) keeps its own height. Unobserved cells fall back to the target's
 ground height. Points above ``g + tolerance`` are obstacle points (``llmland_schemas.depth``).
+
+Points are staged (:meth:`GroundMap.stage`, from any thread, in any order) and folded in by
+:meth:`GroundMap.commit` in stamp order; :meth:`GroundMap.height` reads only committed points,
+so what a frame's blobs look like never depends on the order two cameras' frames arrived in.
 """
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 from scipy import ndimage
@@ -41,6 +47,23 @@ class GroundMap:
         self._cone = -max_slope * dist  # erosion subtracts the structure: min(z + slope · d)
         self._ground = np.full((self.n, self.n), self.centre[2])
         self._dirty = False
+        self._staged: dict[tuple[float, str], FloatArray] = {}
+        self._lock = threading.Lock()
+
+    def stage(self, stamp_s: float, source: str, points_world: FloatArray) -> None:
+        """Hold a frame's points until :meth:`commit` reaches its stamp."""
+        with self._lock:
+            self._staged[(stamp_s, source)] = np.asarray(points_world, dtype=float).reshape(-1, 3)
+
+    def commit(self, upto_s: float) -> None:
+        """Fold in every staged frame stamped at or before ``upto_s``, oldest first."""
+        with self._lock:
+            due = sorted(k for k in self._staged if k[0] <= upto_s + 1e-9)
+            frames = [self._staged.pop(k) for k in due]
+        for pts in frames:
+            self.add_points(pts)
+        with self._lock:
+            self._refresh()
 
     def _cells(self, x: FloatArray, y: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         i = np.floor((x - self.origin[0]) / self.cell).astype(np.int64)
@@ -68,8 +91,7 @@ class GroundMap:
         self._dirty = False
 
     def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
-        """Ground height (m) under world points (vectorised over equal shapes)."""
-        self._refresh()
+        """Ground height (m) under world points (vectorised over equal shapes), committed points only."""
         xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
         finite = np.isfinite(xa) & np.isfinite(ya)
         i, j, inside = self._cells(np.where(finite, xa, 0.0), np.where(finite, ya, 0.0))

@@ -32,8 +32,9 @@ from .settings import PlannerSettings
 log = logging.getLogger("llmland.planner")
 
 
-#: longest wait (s, wall) for the frame or spec a lockstep state says has been published
-INPUT_WAIT_S = 1.0
+#: longest wait (s, wall) for the frame or spec a lockstep state says has been published; only
+#: a lost message should run into it (a shorter limit made seeded runs diverge under heavy load)
+INPUT_WAIT_S = 10.0
 
 
 class PlannerService:

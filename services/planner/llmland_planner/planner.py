@@ -205,7 +205,9 @@ class Planner:
 
     def _log_phase(self, phase: Phase, t: float, around: Surroundings) -> None:
         """Phase changes, and every ``GATE_LOG_PERIOD_S`` while holding why the gate is closed."""
-        gate = self.landing.last_gate if self.landing else None
+        if self.landing is None:
+            return
+        gate = self.landing.last_gate
         changed = phase != self._logged_phase
         if not changed and not (phase == Phase.HOLD and t - self._logged_t >= GATE_LOG_PERIOD_S):
             return

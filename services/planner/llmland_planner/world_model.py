@@ -144,7 +144,8 @@ class WorldModel:
         s = self.settings
         pts = backproject(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, s.blob_stride)
         if self.ground is not None:
-            self.ground.add_points(pts[::GROUND_POINT_STRIDE, ::GROUND_POINT_STRIDE])
+            step = GROUND_POINT_STRIDE
+            self.ground.stage(frame.header.stamp, frame.header.camera, pts[::step, ::step])
         blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=s.blob_stride,
                            max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m, points_world=pts,
                            ground_height_fn=self.ground.height if self.ground is not None else None)
@@ -162,6 +163,8 @@ class WorldModel:
                 blobs, visible = views[camera]
                 self.tracker.update(blobs, stamp, visible_fn=visible, source=camera)
             self.version += 1
+        if self.ground is not None:
+            self.ground.commit(t_s)
 
     def on_spec(self, msg: SafetySpecMessage) -> None:
         """Queue the per-object specs for release."""

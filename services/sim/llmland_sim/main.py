@@ -45,6 +45,9 @@ from .viz import SimRecorder
 
 log = logging.getLogger("llmland.sim")
 
+#: lockstep: after a tick without a command, wait this long (s, wall) until the planner is back
+DEAD_PLANNER_WAIT_S = 0.05
+
 
 class SimService:
     """Runs episodes as missions arrive."""
@@ -62,6 +65,7 @@ class SimService:
         self.spec_latencies_ms: list[float] = []
         self.fallback_specs = 0
         self.walls = WallTimes()
+        self._planner_ok = True
         d = settings.drone_id
         self.k = {t: key(d, t) for t in Topic}
         bus.subscribe(self.k[Topic.MISSION], MissionGoal, self._on_mission)
@@ -117,6 +121,7 @@ class SimService:
         self.fallback_specs = 0
         sim.reset(mission)
         self.walls = WallTimes()
+        self._planner_ok = True
         assert sim.world is not None
         # Tell everyone the resolved mission (start and target filled from the world).
         mission = mission.model_copy(update={
@@ -206,8 +211,12 @@ class SimService:
         if mission.clock != "lockstep":
             time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
             return self.commands.take_latest()
+        # After a miss the planner is presumed dead: wait only briefly until it answers again,
+        # so a dead planner costs the vehicle-side failsafe, not 10 s of wall time per tick.
+        timeout = s.lockstep_timeout_s if self._planner_ok else DEAD_PLANNER_WAIT_S
         with self.walls.time("planner_wait"):
-            cmd = self.commands.wait_for(sim.seq, s.lockstep_timeout_s)
+            cmd = self.commands.wait_for(sim.seq, timeout)
+        self._planner_ok = cmd is not None
         if cmd is None:
             sim.deadline_misses += 1
         return cmd
