@@ -24,8 +24,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from llmland_schemas import (
     CorridorPolytope,
+    LandingGate,
     MissionGoal,
     PlanSnapshot,
+    ReachDisc,
     SafetySpecMessage,
     UnsafeBox,
     VehicleState,
@@ -50,6 +52,10 @@ log = logging.getLogger(__name__)
 CORRIDOR_EXIT_M = 0.3
 #: The MPC's soft floor sits this far (m) below the target: the ground, not the goal.
 GROUND_FLOOR_MARGIN_M = 0.2
+#: A plan snapshot (for displays) goes out at least this often (s) and on every phase change.
+SNAPSHOT_PERIOD_S = 0.5
+#: Gate margins are shown clipped to ± this (m) (no people and no coverage limit: infinite).
+GATE_MARGIN_SHOWN_M = 99.0
 #: While holding, why the gate is closed is logged this often (s).
 GATE_LOG_PERIOD_S = 5.0
 #: Paths and holds keep this much (m) above the reach ceiling.
@@ -113,6 +119,8 @@ class Planner:
         self._last_t = 0.0
         self._logged_phase: Phase | None = None
         self._logged_t = -1e9
+        self._snap_phase: Phase | None = None
+        self._snap_t = -1e9
 
     @property
     def _lockstep(self) -> bool:
@@ -135,6 +143,7 @@ class Planner:
             self._last_replan_s = -1e9
             self._last_t = 0.0
             self._logged_phase, self._logged_t = None, -1e9
+            self._snap_phase, self._snap_t = None, -1e9
             d = np.subtract(mission.target_m, mission.start_m)[:2]
             self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
             self.mpc.reset()
@@ -177,15 +186,19 @@ class Planner:
         regions = around.regions
         self._steer_yaw(phase, t, pos, goal, around)
         snapshot = None
-        if phase == Phase.TOUCHDOWN:
-            return TickOutput(np.zeros(3), 0.0, phase.value, None, 1e3 * (time.perf_counter() - t_tick))
         halfspaces = None
-        if phase in (Phase.DESCEND, Phase.CLIMB_OUT):
+        if phase in (Phase.DESCEND, Phase.CLIMB_OUT, Phase.TOUCHDOWN):
             ref_pos, ref_vel = self._vertical_reference(phase, pos, vel, goal)
             self.active = None
         else:
             snapshot = self._maybe_replan(t, pos, vel, goal, regions)
             ref_pos, ref_vel, halfspaces = self._reference(pos, goal)
+        if snapshot is None and (phase != self._snap_phase or t - self._snap_t >= SNAPSHOT_PERIOD_S):
+            snapshot = self._snapshot(t, regions, around)
+        if snapshot is not None:
+            self._snap_phase, self._snap_t = phase, t
+        if phase == Phase.TOUCHDOWN:
+            return TickOutput(np.zeros(3), 0.0, phase.value, None, 1e3 * (time.perf_counter() - t_tick), snapshot)
         x0 = np.concatenate([pos, vel, euler])
         if phase in (Phase.DESCEND, Phase.CLIMB_OUT):
             z_floor = float(self.landing.target_m[2]) - GROUND_FLOOR_MARGIN_M  # the ground, not the goal
@@ -291,7 +304,7 @@ class Planner:
             self._job = None
             if job.result is not None:
                 self.active = job.result
-                snapshot = self._snapshot(t, regions)
+                snapshot = self._snapshot(t, regions, None)
             else:
                 self.failed_searches += 1
                 if self.active is not None and self._path_blocked(self.active.path, regions):
@@ -359,7 +372,23 @@ class Planner:
                 hs = None
         return ref.p, ref.v, hs
 
-    def _snapshot(self, t: float, regions: list[UnsafeRegion]) -> PlanSnapshot:
+    def _gate_view(self, around: Surroundings | None) -> LandingGate | None:
+        """The last gate decision for displays, with each possible person's reachable disc."""
+        landing = self.landing
+        gate = landing.last_gate if landing is not None else None
+        if gate is None or landing is None:
+            return None
+        people = around.people if around is not None else []
+        discs = [ReachDisc(track_id=p.track_id, label=p.label,
+                           centre_m=(float(p.centre_xy[0]), float(p.centre_xy[1]), float(landing.target_m[2])),
+                           radius_m=p.radius_m + landing.bounds.reach_m(p.age_s + gate.duration_s, p.speed_mps))
+                 for p in people]
+        return LandingGate(open=gate.open, duration_s=gate.duration_s,
+                           margin_m=float(np.clip(gate.clearance.margin_m, -GATE_MARGIN_SHOWN_M, GATE_MARGIN_SHOWN_M)),
+                           binding=gate.clearance.track_id, disc_clear=gate.disc_clear,
+                           coverage_m=around.coverage_m if around is not None else 0.0, people=discs)
+
+    def _snapshot(self, t: float, regions: list[UnsafeRegion], around: Surroundings | None) -> PlanSnapshot:
         act = self.active
         assert self.mission is not None
         return PlanSnapshot(
@@ -373,4 +402,6 @@ class Planner:
                                label=r.label, is_dynamic=r.is_dynamic) for r in regions],
             search_ms=act.search_ms if act else None,
             episode_id=self.mission.episode_id,
+            target_m=vec3(self.landing.target_m) if self.landing else None,
+            gate=self._gate_view(around),
         )

@@ -282,13 +282,41 @@ class CorridorPolytope(Strict):
     b: list[FiniteFloat]
 
 
+class ReachDisc(Strict):
+    """Where a possible person may be by the end of the descent (the hard limit's reachable set)."""
+
+    track_id: str
+    label: str = ""
+    centre_m: Vec3  # last observed position (ground point)
+    radius_m: NonNegFloat  # body radius + reach over age + descent
+
+
+class LandingGate(Strict):
+    """The landing gate at one tick (planner ``landing.py``): why the vehicle descends or waits."""
+
+    open: bool
+    duration_s: NonNegFloat  # the rest of the descent, touchdown dwell included
+    margin_m: float  # the hard limit's worst margin (≥ 0: provably > 1 m from everyone)
+    binding: str = ""  # the binding track id; "" = untracked people (coverage); "-" = nobody
+    disc_clear: bool = True
+    coverage_m: NonNegFloat = 0.0  # downward camera coverage radius
+    people: list[ReachDisc] = []
+
+
 class PlanSnapshot(Envelope):
+    """What the planner is doing: phase, reference path, corridors, unsafe regions, the gate.
+
+    Published when a new plan is adopted, when the phase changes, and at most every
+    0.5 s otherwise (for displays)."""
+
     mode: str
     reference_m: list[Vec3] = []
     corridors: list[CorridorPolytope] = []
     regions: list[UnsafeBox] = []
     search_ms: NonNegFloat | None = None
     episode_id: str = ""
+    target_m: Vec3 | None = None
+    gate: LandingGate | None = None
 
 
 # --------------------------------------------------------------------------- episodes
