@@ -180,6 +180,7 @@ def evaluate(
     cases = load_cases(data)[::stride]
     extractor = SpecExtractor(mode, settings=settings, resources=resources)
     extractor.warm_up()
+    humans = {e.id for e in extractor.resources.kb.entries if e.is_human}
     ok_dyn = ok_buf = ok_both = fallbacks = changed = unsafe = decisions = moved = readings_right = 0
     human_right: list[bool] = []
     by_class: dict[str, list[bool]] = {}
@@ -207,8 +208,8 @@ def evaluate(
         decisions += first.decisions > 0
         moved += first.changed > 0
         readings_right += case.reading == ("other" if first.changed else "rules")
-        if mode != "llm" and spec.source != "fallback":
-            human_right.append(first.is_human is (case.cls == "person"))
+        if mode != "llm" and spec.source != "fallback":  # a cyclist is a person with the vehicle buffer
+            human_right.append(first.is_human is (case.cls == "person" or case.expect in humans))
         if not (dyn_ok and buf_ok):
             misses.append(
                 {
