@@ -66,6 +66,8 @@ DOWN_FRAME_FRESH_S = 0.5
 YAW_ATTENTION_M = 12.0
 #: Approaching: face the goal while it is farther than this (m).
 YAW_ALONG_PATH_MIN_M = 1.0
+#: a failed search doubles the next one's budget, at most this many times in a row (×16)
+SEARCH_BUDGET_DOUBLINGS = 4
 
 
 @dataclass
@@ -115,6 +117,7 @@ class Planner:
         self._last_replan_s = -1e9
         self._yaw_ref = 0.0
         self.failed_searches = 0
+        self._failed_in_row = 0
         self._force_replan = False
         self._last_t = 0.0
         self._logged_phase: Phase | None = None
@@ -303,10 +306,12 @@ class Planner:
         if job is not None and due:
             self._job = None
             if job.result is not None:
+                self._failed_in_row = 0
                 self.active = job.result
                 snapshot = self._snapshot(t, regions, None)
             else:
                 self.failed_searches += 1
+                self._failed_in_row += 1
                 if self.active is not None and self._path_blocked(self.active.path, regions):
                     self.active = None  # never keep following a path into a region: hold instead
         need = (
@@ -320,18 +325,32 @@ class Planner:
             self._force_replan = False
             self._last_replan_s = t
             self._job = _Job(t0_s=t, goal_m=goal.copy())
-            threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions)),
-                             daemon=True).start()
+            threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions),
+                                                        self._search_budget_scale()), daemon=True).start()
         return snapshot
 
-    def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion]) -> None:
+    def _search_budget_scale(self) -> int:
+        """Budget multiplier after failed searches in a row: 2^k, k ≤ ``SEARCH_BUDGET_DOUBLINGS``.
+
+        A way around a wide obstacle next to the goal can need more expansions than the
+        per-replan budget; while no plan exists the vehicle holds (safe), so each failure
+        doubles the next search's budget (expansions in lockstep, wall time in realtime)
+        instead of retrying the same search for ever. Deterministic: it depends only on the
+        count of failures.
+        """
+        return 2 ** min(self._failed_in_row, SEARCH_BUDGET_DOUBLINGS)
+
+    def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion],
+                budget_scale: int = 1) -> None:
         t0 = time.perf_counter()
         try:
             # Clearance region at the start (paper App.): if a region has grown over the
             # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
             depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
             cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3),
-                          z_floor_m=self._reach_floor(pos))
+                          z_floor_m=self._reach_floor(pos),
+                          max_expansions=self.search_cfg.max_expansions * budget_scale,
+                          time_budget_s=self.search_cfg.time_budget_s * budget_scale)
             path = plan(pos, vel, job.goal_m, regions, cfg)
             if path is not None:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)

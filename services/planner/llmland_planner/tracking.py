@@ -57,6 +57,9 @@ class TrackedObstacle:
     origin_m: FloatArray | None = None  # centroid when first seen (tells real motion from view changes)
     #: the last side view cut it at the top of the image: its top is unknown (at least ``hi_m[2]``)
     touches_top: bool = False
+    #: it has been seen moving (set by the caller's motion test): a person who walked and now
+    #: stands still is still a possible person
+    has_moved: bool = False
 
 
 class ObstacleTracker:
@@ -198,6 +201,11 @@ class ObstacleTracker:
         """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""
         dt = min(max(0.0, t_s - track.last_seen_s), self.predict_cap_s)
         return np.asarray(track.centroid_m + track.velocity_mps * dt, dtype=np.float64)
+
+    def mark_moved(self, is_moving: Callable[[TrackedObstacle], bool]) -> None:
+        """Set ``has_moved`` on every live track that ``is_moving`` says moves now (sticky)."""
+        for t in self._tracks:
+            t.has_moved = t.has_moved or is_moving(t)
 
     def tracks(self, at_s: float | None = None) -> list[TrackedObstacle]:
         """Copies of the live tracks; with ``at_s`` (s), centroid and bounds are moved to that time."""

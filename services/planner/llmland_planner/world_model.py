@@ -163,6 +163,7 @@ class WorldModel:
                 blobs, visible = views[camera]
                 self.tracker.update(blobs, stamp, visible_fn=visible, source=camera)
             self.version += 1
+        self.tracker.mark_moved(self._moving)
         if self.ground is not None:
             self.ground.commit(t_s)
 
@@ -257,21 +258,22 @@ class WorldModel:
 
         Semantic methods trust the spec: a thing the KB calls static is not swept along an
         apparent motion (the visible surface of a tree shifts as the drone moves around it),
-        unless it is person-sized and moves: then the class was misread and it may be a person.
+        unless it is person-sized and moves or has moved: then the class was misread and it may be a person.
         """
         s, moving = self.settings, self._moving(tr)
         if self.semantic:
             spec = self.spec_for(tr, t_s)
             if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
                 person = spec.is_human is not False
-            else:  # a static class: a misread only if it is person-sized and moves
-                person = bool(spec.is_human) or (moving and self._person_sized(tr))
+            else:  # a static class: a misread only if it is person-sized and has moved
+                person = bool(spec.is_human) or ((moving or tr.has_moved) and self._person_sized(tr))
             believed = moving and (spec.is_dynamic or person)
             return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
                              human=spec.is_human is True)
         if self.blind_caution:
             return TrackView(tr, moving, PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True, True)
-        return TrackView(tr, moving, s.baseline_margin_m, 0.0, "obstacle", moving, moving)
+        # geometry cannot tell a standing person from a post, but one who has walked stays a possible person
+        return TrackView(tr, moving, s.baseline_margin_m, 0.0, "obstacle", moving, moving or tr.has_moved)
 
     def views(self, t_s: float) -> list[TrackView]:
         return [self.view(tr, t_s) for tr in self.tracker.tracks()]

@@ -31,3 +31,29 @@ def test_yaw_reference_takes_the_short_way_through_pi():
     out = pl.tick(_state((9.0, -0.05, 3.0), yaw=-math.pi + 0.02))
     assert out.mpc is not None and out.mpc.ok
     assert out.body_rates_rps[2] < 0.5  # the short way is a small negative turn, not +2π − ε
+
+
+def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
+    """A failed search used to be retried with the same budget for ever (the drone held at its
+    start for the whole episode when the way around a wide crown needed ~1000 expansions)."""
+    import llmland_planner.planner as planner_module
+
+    budgets: list[int] = []
+
+    def failing_plan(pos, vel, goal, regions, cfg):
+        budgets.append(cfg.max_expansions)
+        return None
+
+    monkeypatch.setattr(planner_module, "plan", failing_plan)
+    settings = PlannerSettings()
+    pl = Planner(settings)
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
+                         clock="lockstep"))
+    pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
+    t = 0.0
+    for _ in range(8):
+        pl._maybe_replan(t, pos, vel, goal, [])
+        t += settings.search_budget_s
+    base = settings.search_max_expansions
+    cap = base * 2 ** planner_module.SEARCH_BUDGET_DOUBLINGS
+    assert budgets[:6] == [base, 2 * base, 4 * base, 8 * base, cap, cap]

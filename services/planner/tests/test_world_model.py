@@ -121,3 +121,22 @@ def _half_width_now(wm: WorldModel, t: float) -> float:
     regions = wm.regions(t)
     assert len(regions) == 1
     return float((regions[0].hi[0] - regions[0].lo[0]) / 2)
+
+
+def test_a_person_who_walked_then_stopped_stays_a_possible_person_for_the_baseline():
+    """Geometry-only: a mover is a possible person; one who stops must not drop out of the hard
+    limit (the gate opened for a standing pedestrian 4 m from the pad, then climbed out)."""
+    s = PlannerSettings()
+    wm = WorldModel(s, "baseline")
+    t, x = 0.0, 5.0
+    for _ in range(6):  # walking at 1.2 m/s
+        wm.tracker.update([_blob(x, 0.0)], t)
+        wm.ingest(t)
+        t, x = t + 0.5, x + 0.6
+    assert len(wm.people(t - 0.5)) == 1
+    for _ in range(12):  # standing still: the velocity estimate decays to zero
+        wm.tracker.update([_blob(x, 0.0)], t)
+        wm.ingest(t)
+        t += 0.5
+    people = wm.people(t - 0.5)
+    assert len(people) == 1 and people[0].speed_mps < s.moving_speed_mps
