@@ -200,3 +200,22 @@ def test_only_the_ground_station_publishes_specs_and_drones_serve_captions(
     assert "ground" in specs and "d1" not in specs
     assert len(replies) == 1 and replies[0].ok is not None
     assert str(replies[0].ok.encoding) == "application/json"
+
+
+@pytest.mark.parametrize(("service", "identity"), [("sim", "d0"), ("planner", "planner-d0")])
+def test_compose_health_checks_pass_under_access_control(
+        certs: Path, routers: tuple[str, str], service: str, identity: str) -> None:
+    """compose's health check (``python -m llmland_schemas.health SERVICE d0``) runs with the container's own
+    identity: it must see its service's liveliness token through the ground router."""
+    ground_ep, _ = routers
+    env = {**{k: v for k, v in os.environ.items() if not k.startswith("ZENOH_")}, **tls_env(certs, identity),
+           "ZENOH_MODE": "client", "ZENOH_CONNECT": ground_ep}
+    with Bus(tls_client(certs, identity, ground_ep)) as svc:
+        svc.announce(f"llmland/d0/alive/{service}")
+        rc = 1
+        for _ in range(3):
+            rc = subprocess.run([sys.executable, "-m", "llmland_schemas.health", service, "d0"], env=env,
+                                timeout=60).returncode
+            if rc == 0:
+                break
+    assert rc == 0
