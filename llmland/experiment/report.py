@@ -83,7 +83,7 @@ def _method_table(summary: dict[str, Any], world: str) -> list[str]:
 
 
 def _exp3_table(summary: dict[str, Any]) -> list[str]:
-    lines = ["| LLM | paper latency | our spec latency (mean) | paper peak VRAM | our peak RAM (reasoner + LLM) "
+    lines = ["| LLM | paper latency | our spec latency (mean) | paper peak VRAM | our peak RAM (reasoner + the LLM it ran) "
              "| paper success | our success |", "|---|---|---|---|---|---|---|"]
     for r in summary["rows"]:
         name = r["llm"].split(" (")[0]

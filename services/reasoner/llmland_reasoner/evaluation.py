@@ -4,19 +4,25 @@
 used to tune anything); ``data/captions_dev.jsonl`` is the set the prompt's few-shot examples
 and the grounding weight were chosen on. ``data/captions_public.jsonl`` holds captions that
 real captioners and people wrote (sources in ``data/PUBLIC_CAPTIONS.md``): its ``dev`` split
-was developed on, its ``eval`` split is held out. A caption is right when ``is_dynamic`` matches and
-``buffer_m`` falls in the expected buffer class.
+was developed on, its ``eval`` split is held out. ``data/captions_senses.jsonl`` is the focused
+set for the decision the LLM makes in ``rag`` (which reading an ambiguous mention has; sources in
+``data/SENSES.md``): ``senses:dev`` developed on, ``senses:test`` held out. A caption is right
+when ``is_dynamic`` matches and ``buffer_m`` falls in the expected buffer class.
 
 Latency: *cold* = first time a caption is seen (cache miss, models already loaded and the
 prompt prefix primed); *warm* = the same caption again (cache hit). Model loading is
-reported separately in ``load_s``. ``peak_rss_mb`` is this process's peak.
+reported separately in ``load_s``. ``peak_rss_mb`` is the peak resident memory (``VmHWM``) of
+this process plus that of its child processes (the LLM worker, ``llm_isolation="process"``),
+read from /proc before they exit; ``peak_rss_parts_mb`` has each.
 
     python -m llmland_reasoner.evaluation --json                # all modes, one process each
     python -m llmland_reasoner.evaluation --mode rag --data dev
     python -m llmland_reasoner.evaluation --data public:eval --ablations  # the public set, held out
 
-``--mode all`` also runs ``rag_first_word``: rag with the LLM replaced by "the mention starts
-at the first content word", to show what the LLM adds over BLIP's word order.
+``--mode all`` also runs the rag ablations without any LLM: ``rag_retrieval_top1`` (retrieval's
+top-1 entry instead of the LLM's pointer, retrieval's top-1 reading instead of the LLM's
+decision) and ``rag_first_word`` (the pointer at the first content word), to show what the
+LLM adds.
 """
 
 from __future__ import annotations
@@ -25,7 +31,6 @@ import argparse
 import json
 import logging
 import os
-import resource
 import subprocess
 import sys
 import time
@@ -44,7 +49,7 @@ log = logging.getLogger(__name__)
 
 BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
 MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
-_POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word: the no-LLM ablation of rag
+_POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word, rag_retrieval_top1: rag without the LLM
 _EVERY_MENTION_ENV = "LLMLAND_REASONER_EVERY_MENTION"  # *_single_answer: without the safety layer
 
 
@@ -58,6 +63,9 @@ class CaptionCase(BaseModel):
     kind: Literal["person", "animal", "vehicle", "static", "ground", ""] = ""
     split: str = ""  # public set: dev (developed on) or eval (held out)
     source: str = ""  # public set: repository + path (+ image) the caption comes from
+    #: senses set: the ambiguous mention's reading in this caption — ``rules`` (the KB's or the
+    #: common sense: the machine crane) or ``other`` (the rarer, more careful one: the bird)
+    reading: Literal["rules", "other", ""] = ""
 
     @property
     def cls(self) -> str:
@@ -83,6 +91,14 @@ class EvalReport(BaseModel):
     per_class: dict[str, dict[str, float]] = {}
     #: a person, animal or vehicle answered static when it moves, or with a smaller buffer than its class
     unsafe: int = 0
+    peak_rss_parts_mb: dict[str, float] = {}
+    #: captions with a mention that had another reading to decide, and how many were moved off the
+    #: rules' reading; on the senses set, how many decisions matched the labelled ``reading``
+    decisions: int = 0
+    changed: int = 0
+    decisions_right: int | None = None
+    #: whether ``is_human`` came back True exactly when the caption's class is person (rag, retrieval)
+    is_human_right: float | None = None
     misses: list[dict[str, Any]] = []
 
 
@@ -96,7 +112,7 @@ def load_cases(data: str = "eval") -> list[CaptionCase]:
     """``eval``, ``dev`` (the project's sets), ``public`` (captions real captioners and people
     wrote; ``public:dev`` / ``public:eval`` for its splits) or a path to a JSONL file."""
     name, _, split = data.partition(":")
-    if name in ("eval", "dev", "public"):
+    if name in ("eval", "dev", "public", "senses"):
         text = (pkg_resources.files("llmland_reasoner") / "data" / f"captions_{name}.jsonl").read_text("utf-8")
     else:
         text = Path(data).read_text(encoding="utf-8")
@@ -109,6 +125,42 @@ def is_unsafe(case: CaptionCase, is_dynamic: bool, buffer_m: float) -> bool:
     if case.buffer_class not in ("person", "animal", "vehicle"):
         return False
     return (case.is_dynamic is True and not is_dynamic) or buffer_m < BUFFER_CLASSES[case.buffer_class] - 1e-6
+
+
+def _vm_hwm_kb(pid: int | str) -> float:
+    """``VmHWM`` (peak resident set) of a process, kB; 0 if it is gone."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return float(line.split()[1])
+    except OSError:
+        pass
+    return 0.0
+
+
+def _children(pid: int) -> list[int]:
+    out: list[int] = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            out += [int(c) for c in (task / "children").read_text().split()]
+        except (OSError, ValueError):
+            continue
+    return out
+
+
+def peak_rss_mb() -> dict[str, float]:
+    """Peak RSS (MB) of this process and of each of its descendants (the LLM worker), by name."""
+    parts = {"reasoner": _vm_hwm_kb("self") / 1024.0}
+    todo = _children(os.getpid())
+    while todo:
+        pid = todo.pop()
+        try:
+            name = Path(f"/proc/{pid}/comm").read_text().strip() or str(pid)
+        except OSError:
+            continue
+        parts[f"{name}:{pid}"] = _vm_hwm_kb(pid) / 1024.0
+        todo += _children(pid)
+    return {k: round(v, 1) for k, v in parts.items()}
 
 
 def _pct(values: list[float]) -> dict[str, float]:
@@ -128,7 +180,9 @@ def evaluate(
     cases = load_cases(data)[::stride]
     extractor = SpecExtractor(mode, settings=settings, resources=resources)
     extractor.warm_up()
-    ok_dyn = ok_buf = ok_both = fallbacks = changed = unsafe = 0
+    humans = {e.id for e in extractor.resources.kb.entries if e.is_human}
+    ok_dyn = ok_buf = ok_both = fallbacks = changed = unsafe = decisions = moved = readings_right = 0
+    human_right: list[bool] = []
     by_class: dict[str, list[bool]] = {}
     cold: list[float] = []
     warm: list[float] = []
@@ -151,6 +205,11 @@ def evaluate(
         unsafe += bad
         fallbacks += spec.source == "fallback"
         changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
+        decisions += first.decisions > 0
+        moved += first.changed > 0
+        readings_right += case.reading == ("other" if first.changed else "rules")
+        if mode != "llm" and spec.source != "fallback":  # a cyclist is a person with the vehicle buffer
+            human_right.append(first.is_human is (case.cls == "person" or case.expect in humans))
         if not (dyn_ok and buf_ok):
             misses.append(
                 {
@@ -162,8 +221,10 @@ def evaluate(
                     "phrase": first.phrase,
                     "error": first.error,
                     "unsafe": bad,
+                    "changed_reading": first.changed > 0,
                 }
             )
+    rss = peak_rss_mb()  # before anything exits
     extractor.close()
     n = len(cases)
     return EvalReport(
@@ -178,10 +239,15 @@ def evaluate(
         latency_warm_ms=_pct(warm),
         cpu_cold_ms=_pct(cpu),
         load_s={k: round(v, 2) for k, v in extractor.resources.load_s.items()},
-        peak_rss_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1),
+        peak_rss_mb=round(sum(rss.values()), 1),
+        peak_rss_parts_mb=rss,
         llm_changed_retrieval=changed if mode == "rag" else None,
         per_class={k: {"n": len(v), "acc": round(sum(v) / len(v), 4)} for k, v in sorted(by_class.items())},
         unsafe=unsafe,
+        decisions=decisions,
+        changed=moved,
+        decisions_right=readings_right if any(c.reading for c in cases) else None,
+        is_human_right=round(sum(human_right) / len(human_right), 4) if human_right else None,
         misses=misses,
     )
 
@@ -194,7 +260,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=[*MODES, "all"], default="all")
     parser.add_argument("--data", default="eval",
-                        help="eval | dev | public | public:dev | public:eval | path to a JSONL caption set")
+                        help="eval | dev | public[:dev|:eval|:heldout] | senses[:dev|:test] | a JSONL caption set")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--ablations", action="store_true",
                         help="with --mode all: also rag and retrieval without the every-mention layer")
@@ -203,6 +269,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.mode == "all":  # one process per mode: honest load time and peak memory each
         reports = {}
         runs: list[tuple[str, str, dict[str, str]]] = [(mode, mode, {}) for mode in MODES]
+        runs.append(("rag", "rag_retrieval_top1", {_POINTER_ENV: "retrieval"}))
         runs.append(("rag", "rag_first_word", {_POINTER_ENV: "first_word"}))
         if args.ablations:  # the paper's single answer, without the every-mention safety layer
             runs += [(m, f"{m}_single_answer", {_EVERY_MENTION_ENV: "false"}) for m in ("rag", "retrieval")]
@@ -222,7 +289,10 @@ def main(argv: list[str] | None = None) -> int:
                 f"  cold p50/p95 {rep['latency_cold_ms']['p50']}/{rep['latency_cold_ms']['p95']} ms"
                 f"  cpu p50 {rep['cpu_cold_ms']['p50']} ms  warm p50 {rep['latency_warm_ms']['p50']} ms"
                 f"  rss {rep['peak_rss_mb']} MB"
-                f"  fallbacks {rep['fallbacks']}  unsafe {rep['unsafe']}\n"
+                f"  fallbacks {rep['fallbacks']}  unsafe {rep['unsafe']}"
+                f"  decided {rep['changed']}/{rep['decisions']}"
+                + (f" (right {rep['decisions_right']}/{rep['n']})" if rep["decisions_right"] is not None else "")
+                + "\n"
                 f"          per class: {_classes(rep['per_class'])}\n"
             )
     return 0

@@ -25,11 +25,13 @@ from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 from llmland_schemas.messages import Evidence, SafetySpec
 
+from .decide import LlmDecider
 from .kb import KbEntry
-from .pipeline import Outcome, normalize_caption, run_llm, run_rag, run_retrieval
+from .pipeline import Outcome, normalize_caption, rag_decider, run_llm, run_rag, run_retrieval
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
@@ -45,6 +47,10 @@ class Extraction:
     phrase: str = ""  # rag: the obstacle mention the LLM pointed at
     retrieval_top1: str = ""  # kb id retrieval alone would have chosen
     error: str = ""
+    #: a person, not one, or unknown (None): what ``SafetySpec.is_human`` says where the schema has it
+    is_human: bool | None = None
+    decisions: int = 0  # mentions with another reading to decide (rag: the LLM's decisions)
+    changed: int = 0  # of those, how many the decider moved off the rules' reading
 
 
 class SpecExtractor:
@@ -63,6 +69,7 @@ class SpecExtractor:
         self._cache: OrderedDict[tuple[str, str, str], Extraction] = OrderedDict()
         self._cache_lock = threading.Lock()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reasoner-{mode}")
+        self._llm_decider: LlmDecider | None = None  # kept: it caches the calibration scores
 
     # ------------------------------------------------------------------ public
     def extract(self, caption: str) -> SafetySpec:
@@ -111,7 +118,9 @@ class SpecExtractor:
         except Exception as exc:  # noqa: BLE001
             log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, exc)
             return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+        human: dict[str, Any] = {"is_human": outcome.is_human} if _HAS_IS_HUMAN else {}
         spec = SafetySpec(
+            **human,
             is_dynamic=outcome.is_dynamic,
             z_min=outcome.z_min,
             buffer_m=outcome.buffer_m,
@@ -123,7 +132,8 @@ class SpecExtractor:
             latency_ms=_ms(started),
             mentions=outcome.mentions,
         )
-        result = Extraction(spec=spec, phrase=outcome.phrase, retrieval_top1=outcome.retrieval_top1)
+        result = Extraction(spec=spec, phrase=outcome.phrase, retrieval_top1=outcome.retrieval_top1,
+                            is_human=outcome.is_human, decisions=outcome.decisions, changed=outcome.changed)
         self._cache_put(key, result)
         log.debug("spec %s for %r: %s", self.mode, caption, spec.model_dump(exclude={"caption"}))
         return result
@@ -134,7 +144,10 @@ class SpecExtractor:
             return run_retrieval(caption, res, s.every_mention)
         if self.mode == "llm":
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
-        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention)
+        decider = rag_decider(res, s.rag_pointer, self._llm_decider)
+        if isinstance(decider, LlmDecider):
+            self._llm_decider = decider
+        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, decider)
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)
@@ -157,6 +170,10 @@ class SpecExtractor:
             self._cache.move_to_end(key)
             while len(self._cache) > self.settings.cache_size:
                 self._cache.popitem(last=False)
+
+
+#: ``SafetySpec.is_human`` (None = unknown: the llm baseline, fallbacks) where the schema has it
+_HAS_IS_HUMAN = "is_human" in SafetySpec.model_fields
 
 
 def _ms(started: float) -> float:

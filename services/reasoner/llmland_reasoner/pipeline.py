@@ -14,11 +14,12 @@ from llmland_schemas.messages import MentionResult
 from pydantic import BaseModel, ConfigDict, Field
 
 from . import prompts
+from .decide import Decider, LlmDecider, RetrievalDecider
 from .grounding import ground
 from .kb import KbEntry
 from .mention import caption_words, choose_mention, content_positions
 from .resources import Resources
-from .safety import Numbers, ground_mentions, most_careful
+from .safety import Alternative, Grounded, Numbers, ground_mentions, most_careful
 
 
 def normalize_caption(caption: str) -> str:
@@ -38,12 +39,18 @@ class Outcome:
     phrase: str = ""
     retrieval_top1: str = ""
     mentions: list[MentionResult] = field(default_factory=list)
+    #: a person (True) or not (False), from the KB entry the spec is grounded in; None: unknown
+    #: (the llm baseline has no KB; an unknown noun has no entry)
+    is_human: bool | None = None
+    #: how many mentions had another reading to decide, and how many the decider changed
+    decisions: int = 0
+    changed: int = 0
 
     @classmethod
     def from_entry(cls, entry: KbEntry, model: str, evidence: list[tuple[str, float]], phrase: str = "",
                    retrieval_top1: str = "") -> Outcome:
         return cls(entry.is_dynamic, entry.z_min, entry.buffer_m, entry.label, model, evidence, phrase,
-                   retrieval_top1)
+                   retrieval_top1, is_human=entry.is_human)
 
 
 def _result(text: str, source: str, n: Numbers) -> MentionResult:
@@ -53,39 +60,66 @@ def _result(text: str, source: str, n: Numbers) -> MentionResult:
     )
 
 
-def most_careful_of_mentions(caption: str, answer: Outcome, answer_entry: KbEntry, answer_source: str,
-                             res: Resources, pointed: str = "") -> Outcome:
-    """The safety layer: every mention of the caption grounded in the KB; the spec is the most
-    careful present mention. The mode's own answer (the LLM's pick in rag, the top-1 entry in
-    retrieval) chooses the entry of the mention it names (the one holding ``pointed``, else the
-    first that may take that entry) when that entry is allowed for it (same class, parked only
-    when said); it is the spec as it stands only when the caption names nothing at all."""
-    if res.finder is None or res.names is None:
-        raise RuntimeError("the mention layer needs retrieval (embedder and WordNet)")
-    found = res.finder.find(caption)
-    grounded = ground_mentions(caption, found, res.kb, res.names)
-    absent = [MentionResult(text=f.text, status=f.status, source=f.source, label=f.word_class)
-              for f in found if f.status != "present"]
-    if not grounded:
-        return replace(answer, mentions=[_result(answer.phrase or caption, answer_source, Numbers.of(answer_entry)),
-                                         *absent])
-    allowed = [k for k, g in enumerate(grounded) if answer_entry.id in g.pool]
+def _at_least(a: Numbers, b: Numbers) -> bool:
+    """``a`` is at least as careful as ``b`` in every respect (human, moving, buffer)."""
+    return a.is_human >= b.is_human and a.is_dynamic >= b.is_dynamic and a.buffer_m >= b.buffer_m
+
+
+def _most_careful(grounded: list[Grounded], chosen: list[Alternative | None], answer_entry: KbEntry,
+                  answer_source: str, pointed: str, decider: Decider | None) -> tuple[int, list[Numbers], list[str]]:
+    """The most careful mention (index), every mention's numbers and sources, after the
+    decider's readings (``chosen``) and the mode's own answer (see below)."""
+    options = [c.numbers if c is not None else g.numbers for g, c in zip(grounded, chosen, strict=True)]
+    sources: list[str] = [g.found.source if c is None or decider is None else decider.source
+                          for g, c in zip(grounded, chosen, strict=True)]
+    allowed = [k for k, g in enumerate(grounded) if answer_entry.id in g.pool and chosen[k] is None]
     named = [k for k in allowed if pointed and pointed in grounded[k].found.text.split()]
     target = (named or allowed or [-1])[0]
-    options = [g.numbers for g in grounded]
-    sources: list[str] = [g.found.source for g in grounded]
     order = list(range(len(grounded)))
     if target >= 0:
         options[target] = Numbers.of(answer_entry)
         sources[target] = answer_source
         order = [target, *[k for k in order if k != target]]  # the mode's answer wins a tie
-    best = order[most_careful([options[k] for k in order])]
+    return order[most_careful([options[k] for k in order])], options, sources
+
+
+def most_careful_of_mentions(caption: str, answer: Outcome, answer_entry: KbEntry, answer_source: str,
+                             res: Resources, pointed: str = "", decider: Decider | None = None) -> Outcome:
+    """The safety layer: every mention of the caption grounded in the KB; the spec is the most
+    careful present mention. A mention with other readings (``safety.other_readings``) takes
+    the one ``decider`` chooses (rag: the LLM; none in retrieval: the rules' reading). The mode's
+    own answer (the LLM's pick in rag, the top-1 entry in retrieval) chooses the entry of the
+    mention it names (the one holding ``pointed``, else the first that may take that entry)
+    when that entry is allowed for it (same class, parked only when said); it is the spec as it
+    stands only when the caption names nothing at all. The decider's readings stand only if the
+    caption's spec is then at least as careful as the rules' own (:func:`_at_least`)."""
+    if res.finder is None or res.names is None:
+        raise RuntimeError("the mention layer needs retrieval (embedder and WordNet)")
+    found = res.finder.find(caption)
+    grounded = ground_mentions(caption, found, res.kb, res.names, res.wordnet)
+    absent = [MentionResult(text=f.text, status=f.status, source=f.source, label=f.word_class)
+              for f in found if f.status != "present"]
+    if not grounded:
+        return replace(answer, mentions=[_result(answer.phrase or caption, answer_source, Numbers.of(answer_entry)),
+                                         *absent])
+    none: list[Alternative | None] = [None] * len(grounded)
+    chosen = decider.decide(caption, grounded) if decider is not None else none
+    best, options, sources = _most_careful(grounded, chosen, answer_entry, answer_source, pointed, decider)
+    if any(c is not None for c in chosen):
+        rules = _most_careful(grounded, none, answer_entry, answer_source, pointed, None)
+        if not _at_least(options[best], rules[1][rules[0]]):
+            # a raised mention that wins by the living-first order but with a smaller buffer
+            # ("the dump truck and the crane": a bird, 4 m, over the truck's 5 m): the caption's
+            # spec may only gain care, so the rules' answer stands
+            chosen = none
+            best, options, sources = rules
     results = [_result(g.found.text, sources[k], options[k]) for k, g in enumerate(grounded)] + absent
     n = options[best]
     evidence = [(n.kb_id, 1.0)] if n.kb_id else []
     evidence += [(kb_id, score) for kb_id, score in answer.evidence if kb_id != n.kb_id]
     return replace(answer, is_dynamic=n.is_dynamic, z_min=n.z_min, buffer_m=n.buffer_m, label=n.label,
-                   evidence=evidence, mentions=results)
+                   evidence=evidence, mentions=results, is_human=n.is_human if n.kb_id else None,
+                   decisions=sum(bool(g.alternatives) for g in grounded), changed=sum(c is not None for c in chosen))
 
 
 class PaperAnswer(BaseModel):
@@ -125,7 +159,7 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
         prompts.paper_prefix(), prompts.paper_suffix(caption), prompts.SPEC_GRAMMAR, max_tokens, temperature
     )
     answer = PaperAnswer.model_validate(json.loads('{"is_dynamic": "' + text))
-    return Outcome(
+    return Outcome(  # is_human stays None: the baseline has no KB to say
         is_dynamic=answer.is_dynamic == "yes",
         z_min=answer.z_min,
         buffer_m=answer.buffer,
@@ -134,16 +168,34 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
     )
 
 
+def rag_decider(res: Resources, pointer: str, llm: LlmDecider | None = None) -> Decider | None:
+    """Who chooses between a mention's readings: the LLM (``llm``, or a new one), or retrieval
+    in the no-LLM ablations."""
+    if res.names is None or res.wordnet is None:
+        return None
+    if pointer == "llm" and res.backend is not None:
+        return llm or LlmDecider(res.backend, res.wordnet)
+    return RetrievalDecider(res.kb, res.names)
+
+
 def run_rag(
-    caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm", every_mention: bool = True
+    caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm", every_mention: bool = True,
+    decider: Decider | None = None,
 ) -> Outcome:
-    """LLM-Land. ``pointer="first_word"`` is the no-LLM ablation: the mention simply starts
-    at the caption's first content word."""
+    """LLM-Land. ``pointer="first_word"`` / ``"retrieval"`` are the no-LLM ablations: the mention
+    simply starts at the caption's first content word, or the answer is retrieval's top-1
+    entry; ``decider`` then is retrieval's (:func:`rag_decider`)."""
     if res.names is None:
         raise RuntimeError("rag needs retrieval")
     hits = _retrieve(caption, res)
     words = caption_words(caption)
     positions = content_positions(words)
+    if pointer == "retrieval":
+        answer = Outcome.from_entry(hits[0][0], f"retrieval+{_embed_name(res)}", [(e.id, s) for e, s in hits],
+                                    retrieval_top1=hits[0][0].id)
+        if not every_mention:
+            return answer
+        return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, decider=decider)
     if pointer == "first_word":
         logprobs = [0.0] + [-1.0] * (len(positions) - 1)
         name = "first-word"
@@ -165,4 +217,4 @@ def run_rag(
     answer = Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)
     if not every_mention:
         return answer
-    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word)
+    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word, decider=decider)

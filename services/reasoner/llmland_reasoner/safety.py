@@ -10,6 +10,14 @@ person can never come back as a scarecrow, a giraffe never as a stuffed toy. A v
 static (parked) only when its window says so (:data:`STATIONARY_CUES`); an unknown noun gets
 the conservative spec.
 
+**Other readings.** A mention the rules class as a thing (a KB structure, a WordNet object or
+place) may name a living being or a vehicle in a rarer sense: "a white crane flying over the
+water" (the KB's crane is the machine), "a seal on the beach" (sealing wax is the common
+sense), "a taxi cab". Each such WordNet sense (:func:`other_readings`) becomes an
+:class:`Alternative`, grounded in its class like any mention, and offered only when it is
+more careful in every respect (:func:`dominates`): so whoever chooses among them (the LLM in
+``rag``, ``decide.py``) can only add care, never remove it.
+
 The caption's spec is the most careful mention by :func:`care_key`: a human first (the
 paper's headline class: a person anywhere in the caption means a person spec), then other
 living or unknown things, then anything dynamic, then the larger buffer, then the higher
@@ -28,6 +36,7 @@ from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, CONSERVATIVE_Z_MIN_M
 
 from .grounding import NameIndex
 from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
+from .lexicon import CLASS_WORDS, WordNet
 from .mentions import Found, tokenize
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
@@ -76,6 +85,15 @@ CAREFUL = Numbers("unknown", "", "unknown", True, False, CONSERVATIVE_Z_MIN_M, C
 
 
 @dataclass(frozen=True)
+class Alternative:
+    """Another reading of a mention (a rarer WordNet sense), grounded in its own class."""
+
+    word_class: str
+    plain: tuple[str, ...]  # what it would be, in plain words ("bird")
+    numbers: Numbers
+
+
+@dataclass(frozen=True)
 class Grounded:
     """A mention, the numbers it was given and the entries it could have been given."""
 
@@ -83,11 +101,56 @@ class Grounded:
     numbers: Numbers
     score: float = 0.0
     pool: tuple[str, ...] = ()
+    #: what the rules' reading is, in plain words ("device"); empty when there is no other reading
+    plain: tuple[str, ...] = ()
+    alternatives: tuple[Alternative, ...] = ()
 
 
 def care_key(n: Numbers) -> tuple[bool, bool, bool, float, float]:
     """Larger = more careful: human, living (or unknown), dynamic, buffer, altitude floor."""
     return (n.is_human, n.category in ("person", "animal", "unknown"), n.is_dynamic, n.buffer_m, n.z_min)
+
+
+def dominates(a: Numbers, b: Numbers) -> bool:
+    """Whether ``a`` is at least as careful as ``b`` in every respect (human, moving, buffer) and
+    more careful in one: the only change another reading may make."""
+    at_least = a.is_human >= b.is_human and a.is_dynamic >= b.is_dynamic and a.buffer_m >= b.buffer_m
+    return at_least and (a.is_human, a.is_dynamic, a.buffer_m) != (b.is_human, b.is_dynamic, b.buffer_m)
+
+
+#: The classes a thing's rarer sense may raise it to. Not person: the person senses WordNet
+#: gives thing-nouns are figurative ("a brick": a good fellow, "a head": a chief, "the sun": a
+#: person's light), measured on the COCO/Flickr references (``data/SENSES.md``).
+RAISE_CLASSES = ("animal", "vehicle")
+#: Mention classes that have no other reading: already the careful ones, or depictions by rule.
+_SETTLED = frozenset({"person", "animal", "vehicle", "lookalike", "unknown", "abstract"})
+
+
+def other_readings(found: Found, wordnet: WordNet) -> tuple[tuple[str, ...], dict[str, tuple[str, ...]]]:
+    """The plain words of the rules' reading of a thing-mention and, per raise class, of its
+    other senses: WordNet senses of the mention (a compound as a whole, "storage tank", else
+    its head noun) in an animal or vehicle
+    class whose first name is that word ("crane" the bird; not "tower" the tugboat, whose first
+    name is "tugboat"), not through a group ("a head of cattle" is one animal, "a team" a group).
+    No vehicle reading for a bicycle: whether one is ridden is the rider rule's."""
+    if found.status != "present" or found.word_class in _SETTLED:
+        return (), {}
+    *head, last = found.text.split()
+    whole = " ".join([*head, wordnet.lemma(last)])  # "storage tanks" -> "storage tank"
+    senses = wordnet.senses(whole) or wordnet.senses(wordnet.lemma(last))
+    others: dict[str, list[str]] = {}
+    for s in senses:
+        if s.word_class in RAISE_CLASSES and s.first_lemma and not s.group:
+            if s.word_class == "vehicle" and found.kb_id in RIDDEN_IDS:
+                continue
+            others.setdefault(s.word_class, [])
+            if s.plain not in others[s.word_class]:
+                others[s.word_class].append(s.plain)
+    if not others:
+        return (), {}
+    own = [s.plain for s in senses if s.word_class not in (*RAISE_CLASSES, "person", "abstract")]
+    plain = tuple(dict.fromkeys(own)) or (CLASS_WORDS.get(found.word_class, "thing"),)
+    return plain, {cls: tuple(w for w in words if w not in plain) or tuple(words) for cls, words in others.items()}
 
 
 def window(words: Sequence[str], found: Found) -> str:
@@ -133,31 +196,46 @@ def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> 
     return any(w in STATIONARY_CUES for w in words[vehicle.start : vehicle.end])  # "parked car"
 
 
+def _best(pool: Sequence[KbEntry], query: np.ndarray | None, names: NameIndex, kb_id: str | None) -> tuple[int, float]:
+    if len(pool) == 1 or query is None:
+        return 0, 1.0
+    scores = np.array([float(names.vector(e) @ query) + (NAME_MATCH_BONUS if e.id == kb_id else 0.0) for e in pool])
+    best = int(np.argmax(scores))
+    return best, float(scores[best])
+
+
 def ground_mentions(
-    caption: str, mentions: Sequence[Found], kb: KnowledgeBase, names: NameIndex
+    caption: str, mentions: Sequence[Found], kb: KnowledgeBase, names: NameIndex, wordnet: WordNet | None = None
 ) -> list[Grounded]:
-    """Ground every present mention; one batched embedding call for all windows."""
+    """Ground every present mention, and the other readings of each (when ``wordnet`` is
+    given); one batched embedding call for all windows."""
     words = tokenize(caption)
     present = [m for m in mentions if m.status == "present"]
     texts = [window(words, m) for m in present]
-    pools = [candidates(kb, m, _parked(words, m, mentions), _ridden(m, mentions)) for m in present]
-    todo = [k for k, pool in enumerate(pools) if len(pool) > 1]
+    parked = [_parked(words, m, mentions) for m in present]
+    pools = [candidates(kb, m, parked[k], _ridden(m, mentions)) for k, m in enumerate(present)]
+    readings = [other_readings(m, wordnet) if wordnet is not None else ((), {}) for m in present]
+    todo = [k for k, pool in enumerate(pools) if len(pool) > 1 or readings[k][1]]
     vectors = names.phrases([texts[k] for k in todo]) if todo else []
     by_k = dict(zip(todo, vectors, strict=True))
     out: list[Grounded] = []
     for k, (found, pool) in enumerate(zip(present, pools, strict=True)):
-        ids = tuple(e.id for e in pool)
         if not pool:
             out.append(Grounded(found, CAREFUL))
             continue
-        if len(pool) == 1:
-            out.append(Grounded(found, Numbers.of(pool[0]), 1.0, ids))
-            continue
-        query = by_k[k]
-        scores = np.array([float(names.vector(e) @ query) + (NAME_MATCH_BONUS if e.id == found.kb_id else 0.0)
-                           for e in pool])
-        best = int(np.argmax(scores))
-        out.append(Grounded(found, Numbers.of(pool[best]), float(scores[best]), ids))
+        best, score = _best(pool, by_k.get(k), names, found.kb_id)
+        numbers = Numbers.of(pool[best])
+        plain, others = readings[k]
+        alternatives: list[Alternative] = []
+        for cls, words_of in others.items():
+            as_cls = Found(found.start, found.end, found.text, cls, "wordnet", None, found.status)
+            alt_pool = candidates(kb, as_cls, parked[k])
+            if alt_pool:
+                alt = Numbers.of(alt_pool[_best(alt_pool, by_k.get(k), names, None)[0]])
+                if dominates(alt, numbers):
+                    alternatives.append(Alternative(cls, words_of, alt))
+        out.append(Grounded(found, numbers, score, tuple(e.id for e in pool), plain if alternatives else (),
+                            tuple(alternatives)))
     return out
 
 

@@ -54,8 +54,11 @@ class ReasonerSettings(BaseSettings):
     #: put the retrieved labels into the rag prompt (the paper's layout); off by default because
     #: the 135M model then points at context words instead of the obstacle (dev set: 91% vs 96%)
     rag_context_in_prompt: bool = False
-    #: who points at the obstacle in the caption: the LLM, or (ablation, no LLM) the first content word
-    rag_pointer: Literal["llm", "first_word"] = "llm"
+    #: the LLM's part in rag: ``llm`` — it points at the obstacle and decides which reading an
+    #: ambiguous mention has ("a crane" the bird or the machine); ablations without any LLM:
+    #: ``first_word`` (the pointer at the first content word) and ``retrieval`` (retrieval's
+    #: top-1 entry as the answer); in both, retrieval's top-1 decides the readings
+    rag_pointer: Literal["llm", "first_word", "retrieval"] = "llm"
     #: the safety layer (rag and retrieval): every obstacle mention of the caption grounded in the
     #: KB, the spec the most careful of them. Off = the paper's single answer (for ablations only)
     every_mention: bool = True

@@ -42,13 +42,19 @@ def test_rag_accuracy_lower_bound(resources: Resources, record_property: Callabl
 
 def test_baselines_are_reported(resources: Resources, record_property: Callable[[str, object], None]) -> None:
     retrieval = evaluate("retrieval", "eval", resources=resources)
-    no_llm = resources.settings.model_copy(update={"rag_pointer": "first_word"})
-    first_word = evaluate("rag", "eval", resources=replace(resources, settings=no_llm), settings=no_llm)
-    llm = evaluate("llm", "eval", resources=resources, stride=6)  # a subset: ~0.5 s a caption
-    for name, report in (("retrieval", retrieval), ("rag_first_word", first_word), ("llm", llm)):
+    llm = evaluate("llm", "eval", resources=resources, stride=12)  # a subset: ~0.5 s a caption
+    for name, report in (("retrieval", retrieval), ("llm", llm)):
         record_property(name, report.model_dump(exclude={"misses"}))
         print(_summary(report, name))
         assert 0.0 <= report.acc_both <= 1.0
+
+
+def test_senses_set_is_sourced_and_apart() -> None:
+    cases = load_cases("senses")
+    assert len(cases) >= 100 and all(c.source.startswith("github:") and c.reading for c in cases)
+    assert {c.split for c in cases} == {"dev", "test"} and sum(c.reading == "other" for c in cases) >= 15
+    others = {c.caption.lower() for c in load_cases("dev") + load_cases("eval") + load_cases("public")}
+    assert not others & {c.caption.lower() for c in cases}
 
 
 def test_public_set_is_sourced_and_covers_every_class() -> None:
@@ -73,4 +79,26 @@ def test_public_held_out_split_never_unsafe(
         assert report.unsafe == 0, [m for m in report.misses if m["unsafe"]]
         assert report.fallbacks == 0
     assert rag.acc_both >= 0.90 and rag.per_class["person"]["acc"] >= 0.90, rag.misses
-    assert retrieval.acc_both >= 0.92 and retrieval.per_class["person"]["acc"] >= 0.97, retrieval.misses
+    assert retrieval.acc_both >= 0.95 and retrieval.per_class["person"]["acc"] >= 0.97, retrieval.misses
+
+
+def test_the_llm_decisions_add_care_on_the_senses_set(
+    resources: Resources, record_property: Callable[[str, object], None]
+) -> None:
+    """The decision the LLM makes in rag (which reading an ambiguous mention has, ``decide.py``),
+    on the held-out split of the focused set: measured against retrieval alone (the rules'
+    reading) and against rag with retrieval's top-1 in the LLM's place. Not zero by construction:
+    the LLM moves mentions off the rules' reading, and finds more of the living and moving ones."""
+    rag = evaluate("rag", "senses:test", resources=resources)
+    retrieval = evaluate("retrieval", "senses:test", resources=resources)
+    no_llm = resources.settings.model_copy(update={"rag_pointer": "retrieval"})
+    top1 = evaluate("rag", "senses:test", resources=replace(resources, settings=no_llm), settings=no_llm)
+    for name, report in (("rag senses:test", rag), ("retrieval senses:test", retrieval),
+                         ("rag_retrieval_top1 senses:test", top1)):
+        record_property(name, report.model_dump(exclude={"misses"}))
+        print(_summary(report, name), "unsafe", report.unsafe, "decided", report.changed, "of", report.decisions,
+              "right", report.decisions_right)
+    assert rag.changed > 0 and retrieval.changed == 0
+    assert rag.unsafe < min(retrieval.unsafe, top1.unsafe) and rag.decisions_right is not None
+    assert retrieval.decisions_right is not None and top1.decisions_right is not None
+    assert rag.decisions_right > max(retrieval.decisions_right, top1.decisions_right)

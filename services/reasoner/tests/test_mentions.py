@@ -33,6 +33,7 @@ def present(found: list[Found]) -> dict[str, str]:
     ("a parking lot full of cars", {"parking lot": "terrain", "cars": "vehicle"}),
     ("geese on a lake", {"geese": "animal", "lake": "terrain"}),
     ("two men fishing", {"men": "person"}),
+    ("several bikers are parked around a turn", {"bikers": "person"}),  # WordNet lacks "biker": was not found
     ("a group of people walking around a bus", {"group of people": "person", "bus": "vehicle"}),
     # nouns the KB lacks: WordNet, else careful
     ("a giraffe", {"giraffe": "animal"}),
