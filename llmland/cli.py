@@ -7,6 +7,7 @@ import json
 import logging
 import os
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,7 +18,7 @@ from llmland_schemas.bus import DEFAULT_ENDPOINT
 from llmland_schemas.messages import MethodName, WorldName
 from llmland_schemas.service import configure_logging, shutdown_event
 
-from .launch import SERVICE_MODULES, Fleet, drone_ids, hub_bus, hub_endpoint
+from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint
 from .results import summarize, write_results_csv
 from .stacks import StackConfig, make_mission, open_stack
 
@@ -25,6 +26,8 @@ log = logging.getLogger("llmland")
 
 WORLDS = list(get_args(WorldName))
 METHODS = list(get_args(MethodName))
+#: how often `llmland up` logs the reasoner's specs per drone (s), when they changed
+SERVED_LOG_PERIOD_S = 30.0
 
 
 def _config(args: argparse.Namespace) -> StackConfig:
@@ -125,11 +128,17 @@ def cmd_up(args: argparse.Namespace) -> int:
         log.info("services up on %s for drone(s) %s: %s — send a mission with `llmland mission --world open_field "
                  "--seed 1 --drone-id %s`; Ctrl-C stops all", hub_endpoint(port), ", ".join(drones),
                  ", ".join(args.services), drones[0])
+        served, next_log = SpecsServed(bus), time.monotonic() + SERVED_LOG_PERIOD_S
+        logged: dict[str, int] = {}
         while not stop.wait(0.5):
             for name, proc in fleet.procs().items():
                 if proc.poll() is not None:
                     log.error("%s exited with code %s", name, proc.returncode)
                     return 1
+            if time.monotonic() >= next_log and (counts := served.counts()) != logged:
+                log.info("reasoner specs served per drone: %s", counts)
+                logged, next_log = counts, time.monotonic() + SERVED_LOG_PERIOD_S
+        log.info("stopping; reasoner specs served per drone: %s", served.counts())
     return 0
 
 

@@ -18,12 +18,14 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
+from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from llmland_schemas import alive
+from llmland_schemas import Topic, alive, any_drone, drone_of
 from llmland_schemas.bus import LOOPBACK_LISTEN, Bus, ZenohSettings
 from llmland_schemas.keys import ALIVE_ANY_DRONE, ALIVE_GROUND, SHARED_SERVICES, ground_alive, validate_drone_id
 
@@ -206,3 +208,20 @@ class Fleet:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+class SpecsServed:
+    """Counts the specs the shared reasoner publishes, per drone (``llmland up`` logs them)."""
+
+    def __init__(self, bus: Bus) -> None:
+        self._counts: Counter[str] = Counter()
+        self._lock = threading.Lock()
+        bus.subscribe_parsed(any_drone(Topic.SPEC), len, self._on_spec)
+
+    def _on_spec(self, k: str, _size: int) -> None:
+        with self._lock:
+            self._counts[drone_of(k)] += 1
+
+    def counts(self) -> dict[str, int]:
+        with self._lock:
+            return dict(sorted(self._counts.items()))
