@@ -219,3 +219,16 @@ def test_compose_health_checks_pass_under_access_control(
             if rc == 0:
                 break
     assert rc == 0
+
+
+def test_a_drone_cannot_pose_as_a_shared_service_or_another_drone(certs: Path, routers: tuple[str, str]) -> None:
+    ground_ep, _ = routers
+    with (Bus(tls_client(certs, "d1", ground_ep)) as rogue, Bus(tls_client(certs, "ground", ground_ep)) as ground):
+        rogue.announce("llmland/@ground/alive/reasoner")
+        rogue.announce("llmland/d0/alive/sim")
+        rogue.announce("llmland/d1/alive/sim")  # its own: allowed
+        seen: set[str] = set()
+        deadline = time.monotonic() + 10
+        while "llmland/d1/alive/sim" not in seen and time.monotonic() < deadline:
+            seen = ground.alive("llmland/*/alive/*", 0.5) | ground.alive("llmland/@ground/alive/*", 0.5)
+    assert seen == {"llmland/d1/alive/sim"}

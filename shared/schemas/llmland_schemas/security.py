@@ -91,7 +91,8 @@ def _drone_rules(d: str, onboard: bool) -> list[dict[str, Any]]:
     receives = [f"{own}/planner/**", f"{own}/reasoner/spec", f"{own}/mission"]
     return [
         _rule(f"{d}-publish", ["put"], ["ingress"], publishes),
-        _rule(f"{d}-alive", ["liveliness_token"], ["ingress", "egress"], [f"{own}/alive/**", f"{GROUND_PREFIX}/**"]),
+        _rule(f"{d}-alive", ["liveliness_token"], ["ingress"], [f"{own}/alive/**"]),
+        _rule(f"{d}-see-alive", ["liveliness_token"], ["egress"], [f"{own}/alive/**", f"{GROUND_PREFIX}/**"]),
         _rule(f"{d}-subscribe", ["declare_subscriber"], ["ingress"], receives),
         _rule(f"{d}-receive", ["put"], ["egress"], receives),
         _rule(f"{d}-interest", INTEREST_MESSAGES, ["egress"], EVERYTHING),
