@@ -13,7 +13,6 @@ from llmland_schemas.bus import Bus
 log = logging.getLogger(__name__)
 
 
-
 def new_episode_id(world: str, seed: int, method: str) -> str:
     return f"{world}-s{seed}-{method}-{uuid.uuid4().hex[:6]}"
 
@@ -27,6 +26,7 @@ class EpisodeRunner:
         self._cond = threading.Condition()
         self._results: dict[str, EpisodeResult] = {}
         self._started: set[str] = set()
+        self._aborted = False
         bus.subscribe(key(drone_id, Topic.RESULT), EpisodeResult, self._on_result)
         bus.subscribe(key(drone_id, Topic.STATE), VehicleState, self._on_state)
 
@@ -41,6 +41,16 @@ class EpisodeRunner:
                 self._started.add(msg.episode_id)
                 self._cond.notify_all()
 
+    def abort(self) -> None:
+        """Make a waiting and every later :meth:`run` raise ``RuntimeError`` (an interrupted experiment)."""
+        with self._cond:
+            self._aborted = True
+            self._cond.notify_all()
+
+    def _check_aborted(self) -> None:
+        if self._aborted:
+            raise RuntimeError("episode aborted")
+
     def run(self, mission: MissionGoal, wall_timeout_s: float | None = None) -> EpisodeResult:
         """Start ``mission`` (re-sent until the sim answers) and wait for its result."""
         mission_key = key(self.drone_id, Topic.MISSION)
@@ -48,11 +58,13 @@ class EpisodeRunner:
         deadline = time.monotonic() + wall_timeout_s
         with self._cond:
             while mission.episode_id not in self._started and mission.episode_id not in self._results:
+                self._check_aborted()
                 self.bus.publish(mission_key, mission)
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"the sim never started episode {mission.episode_id}")
                 self._cond.wait(0.5)
             while mission.episode_id not in self._results:
+                self._check_aborted()
                 left = deadline - time.monotonic()
                 if left <= 0:
                     self.bus.publish(mission_key, mission.model_copy(update={"command": "stop"}))

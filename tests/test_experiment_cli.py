@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import csv
 import json
+import signal
+import subprocess
+import time
 from pathlib import Path
 
+import psutil
 import pytest
 
 from llmland.experiment.runner import WALL_COLUMNS
 
-from .conftest import run_cli
+from .conftest import BIN, REPO, run_cli
 
 pytestmark = pytest.mark.integration
 
@@ -51,3 +55,27 @@ def test_two_trial_experiment_writes_its_folder_and_replays_identically(tmp_path
     proc = run_cli(*ARGS, "--out", str(first), "--resume", timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert (first / "trials.csv").read_text() == before  # nothing flown again
+
+
+def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> None:
+    """SIGTERM (or Ctrl-C) mid-trial stops every service of every job; --resume flies what is left."""
+    proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "2", "--methods", "baseline",
+                             "--jobs", "2", "--out", str(tmp_path)], cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + STARTUP_WAIT_S
+    services: list[psutil.Process] = []
+    while time.monotonic() < deadline and len(services) < 4:  # two jobs × (sim, planner)
+        services = parent.children(recursive=True)
+        time.sleep(0.2)
+    assert len(services) >= 4, "the stacks did not start"
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=30) != 0
+    gone, alive = psutil.wait_procs(services, timeout=10)
+    assert not alive, [p.pid for p in alive]
+    if (tmp_path / "trials.csv").exists():  # a trial that ended before the signal is kept, the rest is not
+        assert len(_rows_without_wall_columns(tmp_path / "trials.csv")) < 2
+
+
+#: wall seconds the two stacks get to start
+STARTUP_WAIT_S = 60.0

@@ -39,7 +39,7 @@ PAPER_EXP3 = {
     "Llama-3.2-3B-Instruct": (2252.7, 2.9, 60.0),
 }
 PAPER_METHOD_NAMES = {"baseline": "Baseline MPC", "llm": "LLM–MPC", "llm-land": "LLM-Land",
-                      "conservative": "(not in the paper)"}
+                      "conservative": "not in the paper"}
 
 
 @dataclass(frozen=True)

@@ -83,8 +83,9 @@ def _method_table(summary: dict[str, Any], world: str) -> list[str]:
 
 
 def _exp3_table(summary: dict[str, Any]) -> list[str]:
-    lines = ["| LLM | paper latency | our spec latency (mean) | paper peak VRAM | our peak RAM (reasoner + the LLM it ran) "
-             "| paper success | our success |", "|---|---|---|---|---|---|---|"]
+    lines = ["| LLM | paper latency | our spec latency (mean) | paper peak VRAM "
+             "| our peak RAM (reasoner + the LLM it ran) | paper success | our success |",
+             "|---|---|---|---|---|---|---|"]
     for r in summary["rows"]:
         name = r["llm"].split(" (")[0]
         lat, vram, succ = PAPER_EXP3.get(name, (None, None, None))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import logging
+import signal
 import threading
 import time
 from collections import Counter
@@ -41,6 +42,10 @@ WALL_COLUMNS = {"spec_compute_ms_mean", "mpc_solve_ms_p50", "mpc_solve_ms_p95", 
                 "peak_memory_mb", "wall_time_s", "episode_id"}
 #: a trial whose episode never ends is abandoned after this much wall time per sim second
 WALL_PER_SIM_S = 20.0
+#: Seconds a service gets to exit on SIGTERM when an experiment is interrupted.
+STOP_GRACE_S = 3.0
+#: Seconds between checks for an interrupt while waiting for the jobs.
+JOIN_POLL_S = 0.5
 
 
 def _fmt(v: float | None, digits: int = 3) -> str:
@@ -81,6 +86,10 @@ def read_rows(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
+def _raise_interrupt(_signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def row_key(row: dict[str, Any]) -> tuple[str, str, str, int]:
     return (str(row["world"]), str(row["method"]), str(row["variant"]), int(row["seed"]))
 
@@ -106,6 +115,8 @@ class ExperimentRunner:
         self._lock = threading.Lock()
         self._tally: dict[str, Counter[str]] = {}
         self._bar: tqdm | None = None
+        self._stop = threading.Event()
+        self._live: dict[int, RunningStack] = {}
 
     # ------------------------------------------------------------------ scheduling
     def _take(self, current: StackConfig | None) -> Trial | None:
@@ -152,7 +163,7 @@ class ExperimentRunner:
         running: RunningStack | None = None
         tracer: TraceRecorder | None = None
         try:
-            while (trial := self._take(current)) is not None:
+            while not self._stop.is_set() and (trial := self._take(current)) is not None:
                 for attempt in (1, 2):
                     try:
                         if running is None or trial.stack() != current:
@@ -161,17 +172,35 @@ class ExperimentRunner:
                             running = resources.enter_context(open_stack(
                                 current, log_level=self.log_level, log_dir=self.out / "logs" / f"job{index}"))
                             tracer = TraceRecorder(running.bus, running.runner.drone_id)
+                            self._live[index] = running
                         assert running is not None and tracer is not None
+                        if self._stop.is_set():
+                            break
                         self._record(self._fly(running, tracer, trial))
                         break
                     except (TimeoutError, RuntimeError, OSError) as exc:
+                        if self._stop.is_set():  # interrupted: the trial is not recorded, --resume flies it
+                            break
                         log.error("%s failed on attempt %d: %s", trial.name, attempt, exc)
                         resources.close()
                         running, current = None, None
                         if attempt == 2:
                             self._record(error_row(trial, f"{type(exc).__name__}: {exc}"))
         finally:
+            self._live.pop(index, None)
             resources.close()
+
+    def _interrupt(self) -> None:
+        """Ctrl-C or SIGTERM: fly nothing more and stop every stack now (no orphaned services)."""
+        self._stop.set()
+        with self._lock:
+            self.todo.clear()
+        for running in list(self._live.values()):
+            running.runner.abort()
+            try:
+                running.stack.stop(grace_s=STOP_GRACE_S)
+            except (RuntimeError, OSError) as exc:  # a job thread closing the same stack
+                log.debug("stopping a stack: %s", exc)
 
     def run(self) -> float:
         """Fly every trial still to do; returns the wall time (s)."""
@@ -182,9 +211,21 @@ class ExperimentRunner:
                                            dynamic_ncols=True) as bar:
             self._bar = bar
             threads = [threading.Thread(target=self._job, args=(i,), name=f"job{i}") for i in range(self.jobs)]
-            for t in threads:
-                t.start()
-            for t in threads:
-                t.join()
-            self._bar = None
+            previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+            try:
+                for t in threads:
+                    t.start()
+                for t in threads:
+                    while t.is_alive():  # a timed join lets Ctrl-C / SIGTERM reach this thread
+                        t.join(JOIN_POLL_S)
+            except KeyboardInterrupt:
+                log.warning("interrupted: stopping %d running stack(s); --resume continues from trials.csv",
+                            len(self._live))
+                while any(t.is_alive() for t in threads):  # a stack still starting stops once up
+                    self._interrupt()
+                    time.sleep(JOIN_POLL_S)
+                raise
+            finally:
+                signal.signal(signal.SIGTERM, previous)
+                self._bar = None
         return time.perf_counter() - t0
