@@ -7,16 +7,18 @@ import json
 import logging
 import os
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import get_args
 
 from llmland_schemas import EpisodeResult, MissionGoal
+from llmland_schemas.bus import DEFAULT_ENDPOINT
 from llmland_schemas.messages import MethodName, WorldName
 from llmland_schemas.service import configure_logging, shutdown_event
 
-from .launch import SERVICE_MODULES, Stack, hub_bus
+from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint
 from .results import summarize, write_results_csv
 from .stacks import StackConfig, make_mission, open_stack
 
@@ -24,6 +26,8 @@ log = logging.getLogger("llmland")
 
 WORLDS = list(get_args(WorldName))
 METHODS = list(get_args(MethodName))
+#: how often `llmland up` logs the reasoner's specs per drone (s), when they changed
+SERVED_LOG_PERIOD_S = 30.0
 
 
 def _config(args: argparse.Namespace) -> StackConfig:
@@ -113,18 +117,47 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
 
 def cmd_up(args: argparse.Namespace) -> int:
+    """Start the services (``--drones N``: sim+planner+VLE per drone d0…, one reasoner) until Ctrl-C."""
     stop = shutdown_event()
     port = args.port
-    with hub_bus(port) as bus, Stack(port, args.drone_id, log_level=args.service_log_level) as stack:
-        stack.start(args.services)
-        stack.wait_alive(bus)
-        log.info("services up on tcp/127.0.0.1:%d: %s — Ctrl-C stops all", port, ", ".join(args.services))
+    drones = drone_ids(args.drones) if args.drones else [args.drone_id]
+    log_dir = Path(args.log_dir) if args.log_dir else None
+    with hub_bus(port) as bus, Fleet(port, drones, log_level=args.service_log_level, log_dir=log_dir) as fleet:
+        fleet.start(args.services)
+        fleet.wait_alive(bus, timeout_s=args.start_timeout)
+        log.info("services up on %s for drone(s) %s: %s — send a mission with `llmland mission --world open_field "
+                 "--seed 1 --drone-id %s`; Ctrl-C stops all", hub_endpoint(port), ", ".join(drones),
+                 ", ".join(args.services), drones[0])
+        served, next_log = SpecsServed(bus), time.monotonic() + SERVED_LOG_PERIOD_S
+        logged: dict[str, int] = {}
         while not stop.wait(0.5):
-            for name, proc in stack.procs.items():
+            for name, proc in fleet.procs().items():
                 if proc.poll() is not None:
                     log.error("%s exited with code %s", name, proc.returncode)
                     return 1
+            if time.monotonic() >= next_log and (counts := served.counts()) != logged:
+                log.info("reasoner specs served per drone: %s", counts)
+                logged, next_log = counts, time.monotonic() + SERVED_LOG_PERIOD_S
+        log.info("stopping; reasoner specs served per drone: %s", served.counts())
     return 0
+
+
+def cmd_mission(args: argparse.Namespace) -> int:
+    """Send one mission to a running stack; print its EpisodeResult JSON (like ``land``)."""
+    from .mission import MissionError, MissionRequest, send_mission
+
+    req = MissionRequest(world=args.world, seed=args.seed, method=args.method, drone_id=args.drone_id,
+                         timeout_s=args.timeout, clock=args.clock, n_pedestrians=args.pedestrians,
+                         wall_timeout_s=args.wall_timeout)
+    try:
+        result = send_mission(req, _csv(args.connect) or [])
+    except (MissionError, ValueError) as exc:
+        log.error("%s", exc)
+        return 2
+    sys.stderr.write(summary_line(result) + "\n")
+    sys.stderr.flush()
+    sys.stdout.write(result.model_dump_json(indent=2) + "\n")
+    return 0 if result.success or not args.strict else 1
 
 
 @contextmanager
@@ -217,9 +250,30 @@ def build_parser() -> argparse.ArgumentParser:
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
-    up.add_argument("--drone-id", default="d0")
-    up.add_argument("--port", type=int, default=7447)
+    up.add_argument("--drone-id", default="d0", help="the drone's id (one drone)")
+    up.add_argument("--drones", type=int, default=0, metavar="N",
+                    help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
+    up.add_argument("--port", type=int, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
+    up.add_argument("--log-dir", help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")
+    up.add_argument("--start-timeout", type=float, default=180.0, help="seconds to wait for every service")
     up.set_defaults(func=cmd_up)
+
+    mission = sub.add_parser("mission", help="send a mission to a running stack (`llmland up`); print its result")
+    mission.add_argument("--world", choices=WORLDS, required=True)
+    mission.add_argument("--seed", type=int, required=True)
+    mission.add_argument("--method", choices=METHODS, default="llm-land",
+                         help="must match the running services (llm/llm-land need the VLE and the reasoner)")
+    mission.add_argument("--drone-id", default="d0")
+    mission.add_argument("--connect", default=None,
+                         help=f"comma-separated endpoints of the running stack or a router (client mode; default "
+                              f"ZENOH_CONNECT or {DEFAULT_ENDPOINT}; a tls/ endpoint reads ZENOH_TLS_ROOT_CA, "
+                              "ZENOH_TLS_CERTIFICATE, ZENOH_TLS_PRIVATE_KEY)")
+    mission.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    mission.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
+    mission.add_argument("--pedestrians", type=int, default=None)
+    mission.add_argument("--wall-timeout", type=float, default=None, help="give up after this many wall seconds")
+    mission.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
+    mission.set_defaults(func=cmd_mission)
 
     bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
     bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner"])

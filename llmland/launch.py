@@ -1,8 +1,13 @@
 """Start LLM-Land services as separate processes on one Zenoh bus, and stop them cleanly.
 
 The CLI process opens the bus hub: a peer session listening on a loopback endpoint that
-every child connects to (peer mode, multicast off — DESIGN §3). Children run as their
+every child connects to (peer mode, multicast off — DESIGN §3). Every child listens on
+``tcp/127.0.0.1:0`` only, so the peers gossip loopback locators and no socket of a stack leaves
+the machine (docs/network.md); outside tools join the hub in client mode. Children run as their
 own process groups and get SIGTERM, then SIGKILL after a grace period.
+
+Services that serve every drone (the reasoner) announce themselves under the shared
+``llmland/@ground/alive/<service>``; per-drone services under ``llmland/<d>/alive/<service>``.
 """
 
 from __future__ import annotations
@@ -13,13 +18,16 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
+from collections import Counter
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from llmland_schemas import alive
-from llmland_schemas.bus import Bus, ZenohSettings
+from llmland_schemas import Topic, alive, any_drone, drone_of
+from llmland_schemas.bus import LOOPBACK_LISTEN, Bus, ZenohSettings
+from llmland_schemas.keys import ALIVE_ANY_DRONE, ALIVE_GROUND, SHARED_SERVICES, ground_alive, validate_drone_id
 
 log = logging.getLogger(__name__)
 
@@ -33,21 +41,31 @@ SERVICE_MODULES: dict[str, str] = {
 }
 
 
-#: services that serve every drone announce themselves under this id (the ground station)
-SHARED_SERVICES = {"reasoner"}
-SHARED_DRONE = "ground"
+#: per-drone services ``llmland up --drones N`` starts for each drone (plus the shared ones once)
+DRONE_SERVICES = ("sim", "planner", "vle")
+#: the hub and every child bind this address only
+LOOPBACK_HOST = "127.0.0.1"
 
 
 def free_port() -> int:
     """A currently free TCP port on 127.0.0.1."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
+        s.bind((LOOPBACK_HOST, 0))
         return int(s.getsockname()[1])
 
 
 def hub_bus(port: int) -> Bus:
-    """The CLI's own session: it listens and the children connect to it."""
-    return Bus(ZenohSettings(mode="peer", listen=[f"tcp/127.0.0.1:{port}"], connect=[]))
+    """The CLI's own session: it listens (on loopback) and the children connect to it."""
+    return Bus(ZenohSettings(mode="peer", listen=[hub_endpoint(port)], connect=[]))
+
+
+def hub_endpoint(port: int) -> str:
+    return f"tcp/{LOOPBACK_HOST}:{port}"
+
+
+def alive_key(name: str, drone_id: str) -> str:
+    """The liveliness key service ``name`` of drone ``drone_id`` declares."""
+    return ground_alive(name) if name in SHARED_SERVICES else alive(drone_id, name)
 
 
 class Stack:
@@ -57,7 +75,7 @@ class Stack:
                  log_level: str = "WARNING", log_dir: Path | None = None) -> None:
         self.port = port
         self.log_dir = log_dir
-        self.drone_id = drone_id
+        self.drone_id = validate_drone_id(drone_id)
         self.extra_env = env or {}
         self.log_level = log_level
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
@@ -67,8 +85,8 @@ class Stack:
         env = dict(os.environ)
         env.update({
             "ZENOH_MODE": "peer",
-            "ZENOH_CONNECT": f"tcp/127.0.0.1:{self.port}",
-            "ZENOH_LISTEN": "",
+            "ZENOH_CONNECT": hub_endpoint(self.port),
+            "ZENOH_LISTEN": LOOPBACK_LISTEN,
             "LLMLAND_LOG_LEVEL": self.log_level,
         })
         prefix = {"pilot": "REFPILOT"}.get(name, name.upper())
@@ -93,10 +111,13 @@ class Stack:
 
     def wait_alive(self, bus: Bus, timeout_s: float = 60.0) -> None:
         """Block until every started service has declared its liveliness token."""
-        want = {alive(SHARED_DRONE if n in SHARED_SERVICES else self.drone_id, n) for n in self.procs}
+        want = {alive_key(n, self.drone_id) for n in self.procs}
+        shared = any(n in SHARED_SERVICES for n in self.procs)
         deadline = time.monotonic() + timeout_s
         while True:
-            found = bus.alive("llmland/*/alive/*", timeout_s=0.5)
+            found = bus.alive(ALIVE_ANY_DRONE, timeout_s=0.5)
+            if shared:
+                found |= bus.alive(ALIVE_GROUND, timeout_s=0.5)
             if want <= found:
                 return
             for name, proc in self.procs.items():
@@ -128,3 +149,79 @@ class Stack:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def drone_ids(n: int) -> list[str]:
+    """The ids ``llmland up --drones N`` gives its drones: d0 … d{N-1}."""
+    if n < 1:
+        raise ValueError(f"--drones must be at least 1, got {n}")
+    return [f"d{i}" for i in range(n)]
+
+
+class Fleet:
+    """Several drones' stacks and the shared services (started once) on one hub port.
+
+    ``log_dir``: the shared services log to ``log_dir/<service>.log``, each drone's to
+    ``log_dir/<drone>/<service>.log``.
+    """
+
+    def __init__(self, port: int, drones: list[str], env: dict[str, str] | None = None,
+                 log_level: str = "WARNING", log_dir: Path | None = None) -> None:
+        if not drones or len(set(drones)) != len(drones):
+            raise ValueError(f"a fleet needs distinct drone ids, got {drones}")
+        self.shared = Stack(port, drones[0], env=env, log_level=log_level, log_dir=log_dir)
+        self.drones = {d: Stack(port, d, env=env, log_level=log_level, log_dir=log_dir / d if log_dir else None)
+                       for d in drones}
+
+    @property
+    def stacks(self) -> list[Stack]:
+        return [self.shared, *self.drones.values()]
+
+    def start(self, services: Iterable[str]) -> None:
+        names = list(services)
+        self.shared.start([n for n in names if n in SHARED_SERVICES])
+        for st in self.drones.values():
+            st.start([n for n in names if n not in SHARED_SERVICES])
+
+    def procs(self) -> dict[str, subprocess.Popen[bytes]]:
+        """Every process, named ``<service>`` (shared) or ``<drone>/<service>``."""
+        out = dict(self.shared.procs)
+        for d, st in self.drones.items():
+            out.update({f"{d}/{n}": p for n, p in st.procs.items()})
+        return out
+
+    def wait_alive(self, bus: Bus, timeout_s: float = 60.0) -> None:
+        deadline = time.monotonic() + timeout_s
+        for st in self.stacks:
+            if st.procs:
+                st.wait_alive(bus, timeout_s=max(1.0, deadline - time.monotonic()))
+
+    def stop(self, grace_s: float = 5.0) -> None:
+        for proc in self.procs().values():  # every process at once, then wait for each
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGTERM)
+        for st in reversed(self.stacks):
+            st.stop(grace_s)
+
+    def __enter__(self) -> Fleet:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+class SpecsServed:
+    """Counts the specs the shared reasoner publishes, per drone (``llmland up`` logs them)."""
+
+    def __init__(self, bus: Bus) -> None:
+        self._counts: Counter[str] = Counter()
+        self._lock = threading.Lock()
+        bus.subscribe_parsed(any_drone(Topic.SPEC), len, self._on_spec)
+
+    def _on_spec(self, k: str, _size: int) -> None:
+        with self._lock:
+            self._counts[drone_of(k)] += 1
+
+    def counts(self) -> dict[str, int]:
+        with self._lock:
+            return dict(sorted(self._counts.items()))

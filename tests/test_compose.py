@@ -33,11 +33,21 @@ def test_compose_file_validates_with_docker_compose() -> None:
 def test_compose_services_use_the_router_and_health_checks() -> None:
     spec = yaml.safe_load((REPO / "compose.yaml").read_text())
     services = spec["services"]
-    assert {"router", "sim", "planner", "vle", "reasoner"} <= set(services)
+    assert {"certs", "router", "sim", "planner", "vle", "reasoner"} <= set(services)
     for name, svc in services.items():
-        if name in ("router", "cli"):
+        if name in ("certs", "router"):
             continue
         env = svc["environment"]
-        assert env["ZENOH_MODE"] == "client" and env["ZENOH_CONNECT"] == "tcp/router:7447", name
-        assert "healthcheck" in svc, name
-        assert svc["depends_on"]["router"]["condition"] == "service_healthy", name
+        assert env["ZENOH_MODE"] == "client" and env["ZENOH_CONNECT"] == "tls/router:7447", name
+        assert env["ZENOH_TLS_CERTIFICATE"].startswith("/certs/"), name  # every client shows its identity
+        if name != "cli":  # the cli waits for sim and pilot, which wait for the router
+            assert svc["depends_on"]["router"]["condition"] == "service_healthy", name
+            assert "healthcheck" in svc, name
+
+
+def test_compose_router_runs_tls_with_access_control() -> None:
+    router = yaml.safe_load((REPO / "compose.yaml").read_text())["services"]["router"]
+    assert router["command"][-1].startswith("tls/")
+    env = router["environment"]
+    assert env["LLMLAND_ROUTER_ACL"] == "true" and env["LLMLAND_ROUTER_ACL_DRONES"] == "d0"
+    assert router["depends_on"]["certs"]["condition"] == "service_completed_successfully"

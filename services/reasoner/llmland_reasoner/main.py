@@ -10,7 +10,7 @@ import logging
 
 import uvicorn
 from llmland_schemas.bus import Bus
-from llmland_schemas.keys import alive
+from llmland_schemas.keys import ground_alive
 from llmland_schemas.service import configure_logging
 
 from .bus_service import ReasonerBusService, caption_via_vle
@@ -32,7 +32,7 @@ def main() -> None:
     engine.extractor().warm_up()
     with Bus() as bus:
         service = ReasonerBusService(engine, bus)
-        bus.announce(alive("ground", "reasoner"))
+        bus.announce(ground_alive("reasoner"))
         app = create_app(engine, caption_via_vle(bus), settings)
         log.info("reasoner ready: mode=%s models=%s http://%s:%d", settings.mode, engine.models(),
                  settings.http_host, settings.http_port)

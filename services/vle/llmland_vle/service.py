@@ -5,7 +5,7 @@
   captions only the newest frame; frames replaced while it is busy are counted as dropped;
 * publishes ``llmland/<d>/vle/scene`` (:class:`SceneDescription`) per captioned frame;
 * subscribes ``llmland/<d>/sim/truth`` only with the oracle backend;
-* serves the queryable ``llmland/vle/caption``: query payload = PNG/JPEG bytes, optional
+* serves the queryable ``llmland/@ground/vle/caption``: query payload = PNG/JPEG bytes, optional
   selector parameter ``kind=frame|object`` (default ``frame``) → reply JSON :class:`Caption`,
   or ``reply_err`` with a message for a bad image; queries run on their own thread;
 * declares the liveliness token ``llmland/<d>/alive/vle``.

@@ -2,7 +2,19 @@
 
 from .codec import MessageError, decode, encode
 from .frames import CameraFrame, decode_frame, encode_frame
-from .keys import DEFAULT_DRONE_ID, REASONER_SPEC_QUERY, VLE_CAPTION_QUERY, Topic, alive, any_drone, drone_of, key
+from .keys import (
+    DEFAULT_DRONE_ID,
+    GROUND,
+    REASONER_SPEC_QUERY,
+    VLE_CAPTION_QUERY,
+    Topic,
+    alive,
+    any_drone,
+    drone_of,
+    ground_alive,
+    key,
+    validate_drone_id,
+)
 from .messages import (
     CONSERVATIVE_BUFFER_M,
     CONSERVATIVE_Z_MIN_M,
@@ -44,6 +56,7 @@ __all__ = [
     "VEHICLE_BUFFER_M",
     "VEHICLE_Z_MIN_M",
     "DEFAULT_DRONE_ID",
+    "GROUND",
     "REASONER_SPEC_QUERY",
     "SCHEMA_VERSION",
     "VLE_CAPTION_QUERY",
@@ -79,6 +92,8 @@ __all__ = [
     "drone_of",
     "encode",
     "encode_frame",
+    "ground_alive",
     "key",
+    "validate_drone_id",
     "vec3",
 ]

@@ -1,13 +1,21 @@
 """Open Zenoh sessions from settings and exchange typed messages over them.
 
 Settings come from the environment (``ZENOH_MODE``, ``ZENOH_CONNECT``, ``ZENOH_LISTEN``,
-``ZENOH_CONFIG``). The default is peer mode on loopback with explicit endpoints and
-multicast scouting off: a process connects to ``tcp/127.0.0.1:7447`` (the endpoint the
-``llmland`` CLI or ``llmland-router`` listens on) and nothing is sent off the machine.
+``ZENOH_CONFIG``, ``ZENOH_TLS_*``). The default is peer mode on loopback with explicit endpoints
+and multicast scouting off: a process connects to ``tcp/127.0.0.1:7447`` (the endpoint the
+``llmland`` CLI or ``llmland-router`` listens on), a peer listens on ``tcp/127.0.0.1:0`` only (so it
+advertises only loopback locators to other peers: Zenoh's own peer default is ``tcp/[::]:0``) and
+nothing is sent off the machine. ``ZENOH_TLS_ROOT_CA``/``_CERTIFICATE``/``_PRIVATE_KEY`` set up
+(mutual) TLS for ``tls/...`` endpoints (docs/network.md).
 
 :class:`Bus` wraps a session: typed publishers, subscribers that validate every payload
 and count and drop malformed ones (the service stays up), and ``close()`` that always
 runs (a callback subscriber left open hangs process exit).
+
+Encoding policy: every JSON message says ``application/json`` (puts and query replies, also
+when a queryable handler forgets to say so), camera frames say ``application/octet-stream``, error
+replies ``text/plain``. JSON subscribers drop samples that announce a non-JSON encoding (a frame
+on a message key); the untyped default (``zenoh/bytes``, what ``z_put`` sends) is accepted.
 """
 
 from __future__ import annotations
@@ -18,19 +26,37 @@ import threading
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any, Literal, TypeVar
+from typing import Annotated, Any, Literal, TypeVar, cast
 
 import zenoh
 from pydantic import BaseModel, field_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from .codec import MessageError, decode, encode
+from .security import tls_config
 
 log = logging.getLogger(__name__)
 M = TypeVar("M", bound=BaseModel)
 T = TypeVar("T")
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
+#: where a peer listens unless told otherwise: loopback, a port the OS picks
+LOOPBACK_LISTEN = "tcp/127.0.0.1:0"
+JSON = zenoh.Encoding.APPLICATION_JSON
+BINARY = zenoh.Encoding.APPLICATION_OCTET_STREAM
+TEXT = zenoh.Encoding.TEXT_PLAIN
+#: encodings a JSON subscriber accepts (the untyped/text ones: hand-written tools rarely set one)
+JSON_COMPATIBLE = frozenset({"application/json", "text/json", "zenoh/bytes", "zenoh/string", "text/plain"})
+
+
+def encoding_name(encoding: zenoh.Encoding | None) -> str:
+    """The MIME part of an encoding (``application/json`` for ``application/json;schema``)."""
+    return str(encoding if encoding is not None else zenoh.Encoding.ZENOH_BYTES).split(";", 1)[0]
+
+
+def is_json(encoding: zenoh.Encoding | None) -> bool:
+    """Whether a sample's encoding may carry a JSON message (see the encoding policy above)."""
+    return encoding_name(encoding) in JSON_COMPATIBLE
 
 
 class ZenohSettings(BaseSettings):
@@ -43,6 +69,13 @@ class ZenohSettings(BaseSettings):
     listen: Annotated[list[str], NoDecode] = []
     config: Path | None = None
     multicast_scouting: bool = False
+    #: CA that signs every certificate of the fleet (enables ``tls/`` endpoints)
+    tls_root_ca: Path | None = None
+    #: this process's certificate and key (its identity: the common name the router's ACL matches)
+    tls_certificate: Path | None = None
+    tls_private_key: Path | None = None
+    #: mutual TLS: a listener demands a certificate, a connecting side shows its own
+    tls_mtls: bool = True
 
     @field_validator("connect", "listen", mode="before")
     @classmethod
@@ -61,15 +94,40 @@ def make_config(settings: ZenohSettings) -> zenoh.Config:
         conf.insert_json5("connect/endpoints", json.dumps(settings.connect))
     if settings.listen:
         conf.insert_json5("listen/endpoints", json.dumps(settings.listen))
+    elif settings.mode == "peer" and settings.config is None:
+        conf.insert_json5("listen/endpoints", json.dumps([LOOPBACK_LISTEN]))
+    if settings.tls_root_ca is not None:
+        block = tls_config(settings.tls_root_ca, settings.tls_certificate, settings.tls_private_key,
+                           mtls=settings.tls_mtls and settings.tls_certificate is not None)
+        conf.insert_json5("transport/link/tls", json.dumps(block))
+    elif settings.tls_certificate is not None:
+        raise ValueError("ZENOH_TLS_CERTIFICATE needs ZENOH_TLS_ROOT_CA (the CA that signed the fleet's certificates)")
     return conf
 
 
-def open_session(settings: ZenohSettings | None = None) -> zenoh.Session:
-    """Open a Zenoh session from settings (environment when ``None``)."""
+def open_session(settings: ZenohSettings | None = None, config: zenoh.Config | None = None) -> zenoh.Session:
+    """Open a Zenoh session from settings (environment when ``None``) or a ready ``config``."""
     settings = settings or ZenohSettings()
     zenoh.init_log_from_env_or("error")
     log.debug("opening zenoh session mode=%s connect=%s listen=%s", settings.mode, settings.connect, settings.listen)
-    return zenoh.open(make_config(settings))
+    return zenoh.open(config if config is not None else make_config(settings))
+
+
+class JsonReplies:
+    """A query whose replies default to ``application/json`` (errors to ``text/plain``): the encoding
+    policy holds for every queryable, whatever its handler passes."""
+
+    def __init__(self, query: zenoh.Query) -> None:
+        self._query = query
+
+    def reply(self, key_expr: Any, payload: Any, *, encoding: Any = None, **kwargs: Any) -> None:
+        self._query.reply(key_expr, payload, encoding=encoding or JSON, **kwargs)
+
+    def reply_err(self, payload: Any, *, encoding: Any = None) -> None:
+        self._query.reply_err(payload, encoding=encoding or TEXT)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._query, name)
 
 
 class Bus:
@@ -91,7 +149,8 @@ class Bus:
     # ------------------------------------------------------------------ publish
     def publisher(self, key: str, *, express: bool = False,
                   encoding: zenoh.Encoding | None = None) -> zenoh.Publisher:
-        """The publisher for ``key``, declared on first use (JSON unless told otherwise)."""
+        """The publisher for ``key``, declared on first use (JSON unless told otherwise; each put still
+        names its encoding, so a key used for both kinds stays truthful)."""
         with self._lock:
             pub = self._publishers.get(key)
             if pub is None:
@@ -104,11 +163,12 @@ class Bus:
     def publish(self, key: str, msg: BaseModel, *, express: bool = False) -> None:
         """Publish a message as JSON on ``key`` (``express``: never batched, for control-loop
         messages whose latency matters more than throughput)."""
-        self.publisher(key, express=express).put(encode(msg))
+        self.publisher(key, express=express).put(encode(msg), encoding=JSON)
 
     def publish_bytes(self, key: str, payload: bytes, *, encoding: zenoh.Encoding | None = None) -> None:
-        """Publish raw bytes (camera frames)."""
-        self.publisher(key, encoding=encoding or zenoh.Encoding.APPLICATION_OCTET_STREAM).put(payload)
+        """Publish raw bytes (camera frames: ``application/octet-stream`` unless told otherwise)."""
+        enc = encoding or BINARY
+        self.publisher(key, encoding=enc).put(payload, encoding=enc)
 
     # ------------------------------------------------------------------ subscribe
     def subscribe(self, key: str, model: type[M], callback: Callable[[str, M], None]) -> None:
@@ -117,17 +177,21 @@ class Bus:
         def parse(payload: bytes) -> M:
             return decode(model, payload)
 
-        self.subscribe_parsed(key, parse, callback)
+        self.subscribe_parsed(key, parse, callback, accept=is_json)
 
     def subscribe_parsed(
-        self, key: str, parse: Callable[[bytes], T], callback: Callable[[str, T], None]
+        self, key: str, parse: Callable[[bytes], T], callback: Callable[[str, T], None],
+        accept: Callable[[zenoh.Encoding], bool] | None = None,
     ) -> None:
-        """Subscribe with a custom parser; parse errors are logged, counted and dropped."""
+        """Subscribe with a custom parser; parse errors (and encodings ``accept`` refuses) are logged,
+        counted and dropped."""
 
         def on_sample(sample: zenoh.Sample) -> None:
             k = str(sample.key_expr)
             self.received[k] += 1
             try:
+                if accept is not None and not accept(sample.encoding):
+                    raise MessageError(f"unexpected encoding {encoding_name(sample.encoding)}")
                 msg: T = parse(sample.payload.to_bytes())
             except (MessageError, ValueError) as exc:
                 self.dropped[k] += 1
@@ -141,14 +205,16 @@ class Bus:
         self._handles.append(self.session.declare_subscriber(key, on_sample))
 
     def queryable(self, key: str, handler: Callable[[zenoh.Query], None]) -> None:
-        """Declare a queryable; the handler replies with ``query.reply(...)``."""
+        """Declare a queryable; the handler replies with ``query.reply(...)`` (JSON unless it names
+        another encoding, :class:`JsonReplies`)."""
 
         def on_query(query: zenoh.Query) -> None:
             try:
-                handler(query)
+                handler(cast(zenoh.Query, JsonReplies(query)))
             except Exception as exc:
                 log.exception("queryable %s failed", key)
-                query.reply_err(str(exc).encode())
+                query.reply_err(str(exc).encode(), encoding=TEXT)
+                query.drop()  # final now: the logged traceback keeps the query alive and would stall the asker
 
         self._handles.append(self.session.declare_queryable(key, on_query))
 
