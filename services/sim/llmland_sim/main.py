@@ -192,6 +192,8 @@ class SimService:
     def _publish_down_frame(self) -> int:
         frame = self.sim.render_frame(camera="down")
         self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        if self.recorder:
+            self.recorder.camera_down(frame)
         return frame.header.seq
 
     def _publish_state(self, mission: MissionGoal, camera_seq: int | None, down_seq: int | None) -> None:
