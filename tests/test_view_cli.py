@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
 import time
 import urllib.request
@@ -44,7 +46,7 @@ def test_web_viewer_serves_a_recording_on_loopback(tmp_path: Path) -> None:
     rec.disconnect()
     web_port, grpc_port = free_port(), free_port()
     proc = subprocess.Popen(viewer_command(cli, rrd, web=True, web_port=web_port, grpc_port=grpc_port),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         deadline = time.monotonic() + SERVE_TIMEOUT_S
         while True:
@@ -56,6 +58,6 @@ def test_web_viewer_serves_a_recording_on_loopback(tmp_path: Path) -> None:
                 if proc.poll() is not None or time.monotonic() > deadline:
                     raise
                 time.sleep(0.3)
-    finally:
-        proc.terminate()
+    finally:  # the `rerun` script runs the viewer binary as its child: stop the whole group
+        os.killpg(proc.pid, signal.SIGTERM)
         proc.wait(timeout=10)
