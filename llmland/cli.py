@@ -21,6 +21,7 @@ from llmland_schemas.service import configure_logging, shutdown_event
 from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint
 from .results import summarize, write_results_csv
 from .stacks import StackConfig, make_mission, open_stack
+from .view import add_view_parser
 
 log = logging.getLogger("llmland")
 
@@ -280,6 +281,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)
+
+    add_view_parser(sub)
     return parser
 
 

@@ -9,10 +9,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from llmland_sim.viz.readback import landing_problems
 
 from .conftest import BIN, run_cli
 
 pytestmark = pytest.mark.integration
+
+#: issue 12: a 40 s landing records to at most 15 MB
+RRD_BYTES_PER_FLIGHT_S = 15e6 / 40.0
 
 
 def test_readme_first_command_flies_llm_land_through_the_pipeline_and_writes_a_verified_rrd(tmp_path: Path) -> None:
@@ -26,11 +30,13 @@ def test_readme_first_command_flies_llm_land_through_the_pipeline_and_writes_a_v
     assert result["spec_latency_ms_mean"] is not None and result["perception_requests"] > 20
     assert result["close_calls"] == 0 and result["collisions"] == []
     assert f"llm-land open_field seed 1: {result['outcome'].upper()}" in proc.stderr  # the one-line summary
-    assert result["deadline_misses"] <= 0.05 * result["control_ticks"]  # counted; rare under load
     assert rrd.exists() and rrd.stat().st_size > 10_000
     rerun = shutil.which("rerun", path=str(BIN)) or str(Path(sys.executable).parent / "rerun")
     verify = subprocess.run([rerun, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=120)
     assert verify.returncode == 0, verify.stdout + verify.stderr
+    assert rrd.stat().st_size <= RRD_BYTES_PER_FLIGHT_S * result["sim_time_s"]
+    assert landing_problems(rrd, semantic=True) == []  # blueprint, DESIGN §9 paths, path on the drone, boxes
+    assert result["deadline_misses"] <= 0.05 * result["control_ticks"]  # counted; rare under load
 
 
 def test_land_baseline_lands_seed_1() -> None:

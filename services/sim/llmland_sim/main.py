@@ -30,6 +30,7 @@ from llmland_schemas import (
     SafetySpecMessage,
     SceneDescription,
     Topic,
+    VehicleState,
     alive,
     key,
 )
@@ -155,8 +156,10 @@ class SimService:
             if due.down_camera(sim.t_s):
                 with self.walls.time("camera"):
                     down_seq = self._publish_down_frame()
-            self._publish_state(mission, camera_seq, down_seq)
+            state = self._publish_state(mission, camera_seq, down_seq)
             cmd = self._await_command(mission, wall0)
+            if self.recorder:  # once the planner has answered: recording never competes with its tick
+                self.recorder.state(state)
             if cmd is not None and cmd.tick_ms is not None and cmd.tick_ms > 1e3 / s.ctrl_hz:
                 sim.deadline_misses += 1  # the controller overran its control period
             if cmd is not None and cmd.solve_ms is not None:
@@ -192,9 +195,11 @@ class SimService:
     def _publish_down_frame(self) -> int:
         frame = self.sim.render_frame(camera="down")
         self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        if self.recorder:
+            self.recorder.camera_down(frame)
         return frame.header.seq
 
-    def _publish_state(self, mission: MissionGoal, camera_seq: int | None, down_seq: int | None) -> None:
+    def _publish_state(self, mission: MissionGoal, camera_seq: int | None, down_seq: int | None) -> VehicleState:
         """This tick's state, with the frames and specs in effect at this tick (lockstep)."""
         sim = self.sim
         released = self.clock.released_upto_s(sim.t_s) if self.clock is not None else None
@@ -202,8 +207,7 @@ class SimService:
         state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None,
                                   down_camera_seq=down_seq if lockstep else None, specs_released_upto_s=released)
         self.bus.publish(self.k[Topic.STATE], state, express=True)
-        if self.recorder:
-            self.recorder.state(state)
+        return state
 
     def _await_command(self, mission: MissionGoal, wall0: float) -> ControlCommand | None:
         """The command for this tick (lockstep: wait for it; realtime: the newest, wall-paced)."""
