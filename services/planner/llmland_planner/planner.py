@@ -66,6 +66,17 @@ DOWN_FRAME_FRESH_S = 0.5
 YAW_ATTENTION_M = 12.0
 #: Approaching: face the goal while it is farther than this (m).
 YAW_ALONG_PATH_MIN_M = 1.0
+#: The search's workspace spans ± this (m) horizontally (up to ``max_altitude_m``).
+WORKSPACE_HALF_XY_M = 100.0
+#: A goal that moved farther than this (m) from the active plan's is replanned for.
+GOAL_MOVED_REPLAN_M = 0.3
+#: Inside a region at the start, the start clearance reaches this far (m) beyond its depth.
+START_CLEARANCE_MARGIN_M = 0.3
+#: The nearest path point is looked for among this many points past the last progress.
+PROGRESS_WINDOW_POINTS = 40
+#: Plan snapshots carry every this-many-th path point and at most this many corridors.
+SNAPSHOT_PATH_STRIDE = 2
+SNAPSHOT_MAX_CORRIDORS = 20
 
 
 @dataclass
@@ -105,7 +116,8 @@ class Planner:
         self.settings = s = settings or PlannerSettings()
         self.params = params or ModelParams()
         self.mpc = MpcController(self.params, horizon=s.horizon, dt=s.mpc_dt_s, max_halfspaces=s.max_halfspaces)
-        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=(100.0, 100.0, s.max_altitude_m))
+        workspace_hi = (WORKSPACE_HALF_XY_M, WORKSPACE_HALF_XY_M, s.max_altitude_m)
+        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
         self._lock = threading.Lock()
         self.mission: MissionGoal | None = None
         self.world: WorldModel | None = None
@@ -145,7 +157,7 @@ class Planner:
             self._logged_phase, self._logged_t = None, -1e9
             self._snap_phase, self._snap_t = None, -1e9
             d = np.subtract(mission.target_m, mission.start_m)[:2]
-            self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
+            self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > YAW_ALONG_PATH_MIN_M else 0.0
             self.mpc.reset()
         log.info("planner: episode %s method=%s target=%s", mission.episode_id, mission.method, mission.target_m)
 
@@ -312,7 +324,7 @@ class Planner:
         need = (
             self._force_replan
             or self.active is None
-            or float(np.linalg.norm(self.active.goal_m - goal)) > 0.3
+            or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
             or t - self._last_replan_s >= self.settings.replan_period_s
             or self._path_blocked(self.active.path, regions)
         )
@@ -330,8 +342,8 @@ class Planner:
             # Clearance region at the start (paper App.): if a region has grown over the
             # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
             depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
-            cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3),
-                          z_floor_m=self._reach_floor(pos))
+            clearance = max(self.search_cfg.clearance_radius_m, depth + START_CLEARANCE_MARGIN_M)
+            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=self._reach_floor(pos))
             path = plan(pos, vel, job.goal_m, regions, cfg)
             if path is not None:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
@@ -356,7 +368,7 @@ class Planner:
             return np.tile(pos, (n + 1, 1)), np.zeros((n + 1, 3)), None
         p = act.path
         lo = act.progress_idx
-        hi = min(len(p.p), lo + 40)
+        hi = min(len(p.p), lo + PROGRESS_WINDOW_POINTS)
         idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
         act.progress_idx = idx
         t_ref = float(p.t[idx]) + dt
@@ -395,9 +407,9 @@ class Planner:
             drone_id=self.settings.drone_id,
             stamp=t,
             mode=self.landing.phase.value if self.landing else "",
-            reference_m=[vec3(q) for q in act.path.p[::2]] if act else [],
+            reference_m=[vec3(q) for q in act.path.p[::SNAPSHOT_PATH_STRIDE]] if act else [],
             corridors=[CorridorPolytope(A=[vec3(r) for r in c.A], b=[float(x) for x in c.b])
-                       for c in (act.corridors if act else [])][:20],
+                       for c in (act.corridors if act else [])][:SNAPSHOT_MAX_CORRIDORS],
             regions=[UnsafeBox(obj_id=r.obj_id, lo_m=vec3(r.lo), hi_m=vec3(r.hi),
                                label=r.label, is_dynamic=r.is_dynamic) for r in regions],
             search_ms=act.search_ms if act else None,
