@@ -493,11 +493,6 @@ class Vehicle(KinematicActor):
         """Current speed along the loop (m/s)."""
         return self._speed
 
-    @property
-    def arc_length_m(self) -> float:
-        """Arc length travelled along the loop at the latest internal step (m, wrapped)."""
-        return self._s % self.loop.perimeter_m
-
     def _allowed(self, cruise: float) -> float:
         d = self.loop.distance_to_next_turn(self._s)
         cap = math.sqrt(self.TURN_SPEED_MPS**2 + 2.0 * self.BRAKE_MPS2 * d)
