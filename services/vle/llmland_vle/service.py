@@ -4,7 +4,8 @@
   :class:`LatestFrameWorker` (the Zenoh thread does no work), which decodes, checks and
   captions only the newest frame; frames replaced while it is busy are counted as dropped;
 * publishes ``llmland/<d>/vle/scene`` (:class:`SceneDescription`) per captioned frame;
-* subscribes ``llmland/<d>/sim/truth`` only with the oracle backend;
+* subscribes whatever else the backend asks for in ``bus_inputs()`` (the oracle:
+  ``llmland/<d>/sim/truth``);
 * serves the queryable ``llmland/vle/caption``: query payload = PNG/JPEG bytes, optional
   selector parameter ``kind=frame|object`` (default ``frame``) → reply JSON :class:`Caption`,
   or ``reply_err`` with a message for a bad image; queries run on their own thread;
@@ -19,14 +20,14 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import zenoh
-from llmland_schemas import VLE_CAPTION_QUERY, GroundTruth, Topic, alive, encode, key
+from llmland_schemas import VLE_CAPTION_QUERY, Topic, alive, encode, key
 from llmland_schemas.bus import Bus
 from llmland_schemas.codec import MessageError
 from llmland_schemas.frames import peek_header
 
-from .captioner import Captioner, CaptionUnavailableError, make_captioner
+from .backends import make_captioner
+from .captioner import Captioner, CaptionUnavailableError, bus_inputs
 from .crops import ImageError, load_image
-from .oracle import OracleCaptioner
 from .pipeline import FrameProcessor
 from .settings import VleSettings
 from .worker import LatestFrameWorker
@@ -54,9 +55,8 @@ class VleService:
         d = settings.drone_id
         self.scene_key = key(d, Topic.SCENE)
         bus.subscribe_parsed(key(d, Topic.CAMERA), _raw, self._on_frame)  # type: ignore[type-var]
-        if isinstance(self.captioner, OracleCaptioner):
-            oracle = self.captioner
-            bus.subscribe(key(d, Topic.TRUTH), GroundTruth, lambda _k, m: oracle.on_truth(m))
+        for extra in bus_inputs(self.captioner):  # e.g. the oracle's sim/truth
+            bus.subscribe(key(d, extra.topic), extra.message, lambda _k, m, handle=extra.handle: handle(m))
         bus.queryable(VLE_CAPTION_QUERY, self._on_query)
         bus.announce(alive(d, "vle"))
         log.info("vle ready (drone %s, backend %s, model %s)", d, self.captioner.backend,

@@ -1,6 +1,7 @@
 """Render captioned training / held-out data from seeded simulator worlds.
 
-For every (world, seed) a fresh pybullet client builds the world; actors walk and drive
+For every (world, seed) a fresh pybullet client builds the world (:func:`~llmland_vle.simrender.world_scene`,
+the VLE's one door to the simulator); actors walk and drive
 between renders; each render is taken from a sampled drone pose. From one render come:
 
 * seg crops — one per visible object, boxed by its segmentation mask (ground truth, used
@@ -25,11 +26,12 @@ from llmland_schemas.depth import find_blobs
 from ..captions import crop_caption, frame_caption, vehicle_noun
 from ..crops import crop_square, resize
 from ..matching import TruthItem, match_position
+from ..simrender import WORLD_NAMES, world_scene
 from .poses import object_colour, sample_pose, surface_at
 
 log = logging.getLogger(__name__)
 
-WORLDS = ("open_field", "urban", "forest_edge")
+WORLDS = WORLD_NAMES
 MIN_SEG_PX = 50
 #: Objects nearer the camera than this (m, nearest visible point) are not sampled: the
 #: drone never flies that close to an obstacle (1 m from a person is already a failure),
@@ -77,17 +79,10 @@ def _jitter_box(box: tuple[int, int, int, int], rng: np.random.Generator) -> tup
 def _render_world(
     name: str, seed: int, n_renders: int, renderer: str, crop_size: int, frame_size: int, n_pedestrians: int | None
 ) -> RenderSet:
-    import pybullet as p
-    from llmland_sim.camera import RgbdCamera
-    from llmland_sim.world import build_world
-
     out = RenderSet()
     group = f"{name}:{seed}"
     rng = np.random.default_rng([seed, WORLDS.index(name), 7])
-    client = p.connect(p.DIRECT)
-    try:
-        world = build_world(client, name, seed, n_pedestrians=n_pedestrians, renderer=renderer)
-        cam = RgbdCamera(client, renderer=renderer)
+    with world_scene(name, seed, renderer=renderer, n_pedestrians=n_pedestrians) as (world, cam):
         by_body = {o.body_id: o for o in world.objects}
         obj_bodies = np.array([o.body_id for o in world.objects if o.cls != "pad"], dtype=np.int32)
         for _ in range(n_renders):
@@ -168,8 +163,6 @@ def _render_world(
             out.frames.append(resize(r.rgb, frame_size))
             out.frame_captions.append(frame_caption(name, nouns))
             out.renders += 1
-    finally:
-        p.disconnect(client)
     return out
 
 
