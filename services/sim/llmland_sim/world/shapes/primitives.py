@@ -80,6 +80,46 @@ def capsule(pos: Vec3, radius: float, length: float, rgba: Rgba, collide: bool =
     return Part(p.GEOM_CAPSULE, pos, rgba, radius=radius, length=length, collide=collide)
 
 
+def _shape_arrays(ps: Sequence[Part]) -> dict[str, list]:  # type: ignore[type-arg]
+    """The geometry keyword arguments of ``createVisualShapeArray`` / ``createCollisionShapeArray``."""
+    return {
+        "shapeTypes": [q.geom for q in ps],
+        "halfExtents": [list(q.half_extents) for q in ps],
+        "radii": [q.radius for q in ps],
+        "lengths": [q.length for q in ps],
+    }
+
+
+def _visual_array(client: int, ps: Sequence[Part]) -> int:
+    vid = p.createVisualShapeArray(
+        **_shape_arrays(ps),
+        rgbaColors=[list(q.rgba) for q in ps],
+        visualFramePositions=[list(q.pos) for q in ps],
+        visualFrameOrientations=[list(q.quat) for q in ps],
+        physicsClientId=client,
+    )
+    if vid < 0:
+        raise RuntimeError("pybullet failed to create a compound visual shape")
+    return int(vid)
+
+
+def _collision_array(client: int, cparts: Sequence[Part]) -> int:
+    """The collision shape of ``cparts`` (-1 for none: a visual-only body)."""
+    if len(cparts) > MAX_SHAPES_PER_ARRAY:
+        raise ValueError(f"at most {MAX_SHAPES_PER_ARRAY} collision parts per body")
+    if not cparts:
+        return -1
+    col = p.createCollisionShapeArray(
+        **_shape_arrays(cparts),
+        collisionFramePositions=[list(q.pos) for q in cparts],
+        collisionFrameOrientations=[list(q.quat) for q in cparts],
+        physicsClientId=client,
+    )
+    if col < 0:
+        raise RuntimeError("pybullet failed to create a compound collision shape")
+    return int(col)
+
+
 def create_compound(
     client: int,
     parts: Sequence[Part],
@@ -99,44 +139,12 @@ def create_compound(
     """
     if not parts:
         raise ValueError("a compound body needs at least one part")
-
-    def arrays(ps: Sequence[Part]) -> dict[str, list]:  # type: ignore[type-arg]
-        return {
-            "shapeTypes": [q.geom for q in ps],
-            "halfExtents": [list(q.half_extents) for q in ps],
-            "radii": [q.radius for q in ps],
-            "lengths": [q.length for q in ps],
-        }
-
-    def visual_array(ps: Sequence[Part]) -> int:
-        vid = p.createVisualShapeArray(
-            **arrays(ps),
-            rgbaColors=[list(q.rgba) for q in ps],
-            visualFramePositions=[list(q.pos) for q in ps],
-            visualFrameOrientations=[list(q.quat) for q in ps],
-            physicsClientId=client,
-        )
-        if vid < 0:
-            raise RuntimeError("pybullet failed to create a compound visual shape")
-        return int(vid)
-
     # pybullet holds at most MAX_SHAPES_PER_ARRAY shapes per array (more overflow a fixed
     # buffer): extra visual parts go to fixed, mass-0 links of the same body.
     n = MAX_SHAPES_PER_ARRAY
-    chunks = [visual_array(parts[k : k + n]) for k in range(0, len(parts), n)]
+    chunks = [_visual_array(client, parts[k : k + n]) for k in range(0, len(parts), n)]
     cparts = [q for q in parts if q.collide] if collision_parts is None else list(collision_parts)
-    if len(cparts) > n:
-        raise ValueError(f"at most {n} collision parts per body")
-    col = -1
-    if cparts:
-        col = p.createCollisionShapeArray(
-            **arrays(cparts),
-            collisionFramePositions=[list(q.pos) for q in cparts],
-            collisionFrameOrientations=[list(q.quat) for q in cparts],
-            physicsClientId=client,
-        )
-        if col < 0:
-            raise RuntimeError("pybullet failed to create a compound collision shape")
+    col = _collision_array(client, cparts)
     links = chunks[1:]
     zero3 = [0.0, 0.0, 0.0]
     body = p.createMultiBody(
