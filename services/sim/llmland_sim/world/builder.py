@@ -26,6 +26,30 @@ logger = logging.getLogger(__name__)
 H_MARKER_PROB = 0.7
 #: Probability that a vehicle is a van (else a car).
 VAN_PROB = 0.2
+#: Objects sit this far (m) below the lowest ground point under them on uneven ground, and the
+#: ground is sampled on a ring of this many points around them.
+SINK_M = 0.05
+SINK_RING_POINTS = 8
+#: A tree's base sits this much (m) deeper, its trunk as much longer.
+TREE_SINK_M = 0.1
+#: Rocks: main lobe radius (m), extra lobes (inclusive count) of this size relative to it, this
+#: far out (relative), lobe centres this high (relative to their radius).
+ROCK_RADIUS_RANGE_M = (0.35, 0.8)
+ROCK_EXTRA_LOBES = (0, 2)
+ROCK_LOBE_RATIO_RANGE = (0.5, 0.8)
+ROCK_LOBE_OFFSET = 0.6
+ROCK_MAIN_LIFT = 0.3
+ROCK_LOBE_LIFT = 0.2
+#: Crates: length, width, height ranges (m).
+CRATE_SIZE_RANGES_M = ((0.6, 1.6), (0.6, 1.4), (0.5, 1.3))
+#: Bushes: lobes (inclusive count), lobe radius (m), offsets of the extra lobes (m), lift (relative).
+BUSH_LOBES = (2, 4)
+BUSH_LOBE_RADIUS_RANGE_M = (0.35, 0.7)
+BUSH_LOBE_OFFSET_RANGE_M = (0.2, 0.55)
+BUSH_LOBE_LIFT = 0.55
+#: A walker's start is drawn this far (m) inside its region, up to this many times.
+PED_START_MARGIN_M = 0.5
+PED_START_TRIES = 500
 
 
 class WorldBuilder:
@@ -108,11 +132,10 @@ class WorldBuilder:
     def sink_z(self, xy: VecLike, radius_m: float) -> float:
         """Base height for an object of radius ``radius_m`` at ``xy``: lowest ground point, −5 cm."""
         x, y = float(xy[0]), float(xy[1])
-        pts = [(x, y)] + [
-            (x + radius_m * math.cos(a), y + radius_m * math.sin(a)) for a in np.linspace(0, 2 * math.pi, 8, False)
-        ]
+        ring = np.linspace(0, 2 * math.pi, SINK_RING_POINTS, False)
+        pts = [(x, y)] + [(x + radius_m * math.cos(a), y + radius_m * math.sin(a)) for a in ring]
         zs = [self.ground(px, py) for px, py in pts]
-        return min(zs) - (0.05 if max(zs) - min(zs) > 1e-6 else 0.0)
+        return min(zs) - (SINK_M if max(zs) - min(zs) > 1e-6 else 0.0)
 
     def try_tree(
         self, lay: Layout, xy: VecLike, conifer: bool, trunk_h: float, crown_r: float, gap_m: float = OBSTACLE_GAP_M
@@ -121,23 +144,24 @@ class WorldBuilder:
         fp = Footprint((float(xy[0]), float(xy[1])), fr)
         if not lay.fits(fp, gap_m):
             return False
-        trunk_r = float(np.clip(0.08 * crown_r + 0.06, 0.1, 0.35))
+        trunk_r = shapes.tree_trunk_radius(crown_r)
         gfp = Footprint(fp.center_xy, trunk_r)
         lay.add(fp, gfp)
-        z = self.sink_z(xy, trunk_r) - 0.1
-        body = shapes.create_tree(self.client, self.crng, (xy[0], xy[1], z), trunk_h + 0.1, crown_r, conifer)
-        h = shapes.tree_height(trunk_h + 0.1, crown_r, conifer)
+        z = self.sink_z(xy, trunk_r) - TREE_SINK_M
+        body = shapes.create_tree(self.client, self.crng, (xy[0], xy[1], z), trunk_h + TREE_SINK_M, crown_r, conifer)
+        h = shapes.tree_height(trunk_h + TREE_SINK_M, crown_r, conifer)
         self.add_static("tree", body, (2 * fr, 2 * fr, h), (xy[0], xy[1], z), 0.0, fp, gfp)
         return True
 
     def try_rock(self, lay: Layout, xy: FloatArray) -> bool:
         rng = self.rng
-        r0 = float(rng.uniform(0.35, 0.8))
-        lobes = [(0.0, 0.0, 0.3 * r0, r0)]
-        for _ in range(int(rng.integers(0, 3))):
+        r0 = float(rng.uniform(*ROCK_RADIUS_RANGE_M))
+        lobes = [(0.0, 0.0, ROCK_MAIN_LIFT * r0, r0)]
+        for _ in range(int(rng.integers(ROCK_EXTRA_LOBES[0], ROCK_EXTRA_LOBES[1] + 1))):
             a = float(rng.uniform(0, 2 * math.pi))
-            rk = r0 * float(rng.uniform(0.5, 0.8))
-            lobes.append((0.6 * r0 * math.cos(a), 0.6 * r0 * math.sin(a), 0.2 * rk, rk))
+            rk = r0 * float(rng.uniform(*ROCK_LOBE_RATIO_RANGE))
+            off = ROCK_LOBE_OFFSET * r0
+            lobes.append((off * math.cos(a), off * math.sin(a), ROCK_LOBE_LIFT * rk, rk))
         fr = max(math.hypot(x, y) + r for x, y, _, r in lobes)
         fp = Footprint((float(xy[0]), float(xy[1])), fr)
         if not lay.fits(fp):
@@ -151,7 +175,11 @@ class WorldBuilder:
 
     def try_crate(self, lay: Layout, xy: FloatArray) -> bool:
         rng = self.rng
-        size = (float(rng.uniform(0.6, 1.6)), float(rng.uniform(0.6, 1.4)), float(rng.uniform(0.5, 1.3)))
+        size = (
+            float(rng.uniform(*CRATE_SIZE_RANGES_M[0])),
+            float(rng.uniform(*CRATE_SIZE_RANGES_M[1])),
+            float(rng.uniform(*CRATE_SIZE_RANGES_M[2])),
+        )
         yaw = float(rng.uniform(-math.pi, math.pi))
         fp = Footprint((float(xy[0]), float(xy[1])), half_xy=(size[0] / 2, size[1] / 2), yaw_rad=yaw)
         if not lay.fits(fp):
@@ -165,11 +193,11 @@ class WorldBuilder:
     def try_bush(self, lay: Layout, xy: FloatArray) -> bool:
         rng = self.rng
         lobes = []
-        for k in range(int(rng.integers(2, 5))):
-            r = float(rng.uniform(0.35, 0.7))
-            off = 0.0 if k == 0 else float(rng.uniform(0.2, 0.55))
+        for k in range(int(rng.integers(BUSH_LOBES[0], BUSH_LOBES[1] + 1))):
+            r = float(rng.uniform(*BUSH_LOBE_RADIUS_RANGE_M))
+            off = 0.0 if k == 0 else float(rng.uniform(*BUSH_LOBE_OFFSET_RANGE_M))
             a = float(rng.uniform(0, 2 * math.pi))
-            lobes.append((off * math.cos(a), off * math.sin(a), 0.55 * r, r))
+            lobes.append((off * math.cos(a), off * math.sin(a), BUSH_LOBE_LIFT * r, r))
         fr = max(math.hypot(x, y) + r for x, y, _, r in lobes)
         fp = Footprint((float(xy[0]), float(xy[1])), fr)
         if not lay.fits(fp):
@@ -242,8 +270,8 @@ class WorldBuilder:
     ) -> FloatArray | None:
         """A free start in ``region`` at least :data:`PED_START_CLEARANCE_M` from the drone start."""
         rng = actor_rng(self.seed, 1000 + k)
-        for _ in range(500):
-            q = region.sample(rng, margin_m=0.5)
+        for _ in range(PED_START_TRIES):
+            q = region.sample(rng, margin_m=PED_START_MARGIN_M)
             if is_free(float(q[0]), float(q[1])) and np.linalg.norm(q - lay.start_xy[:2]) >= PED_START_CLEARANCE_M:
                 return q
         logger.warning("no pedestrian start %.0f m from the drone start; sampling anywhere", PED_START_CLEARANCE_M)

@@ -8,6 +8,19 @@ import numpy as np
 
 from .geometry import FloatArray
 
+#: Gaussian mounds: how many (inclusive), centres within this fraction of the half-size,
+#: heights (m) and widths (m, 1 σ).
+MOUND_COUNT = (7, 11)
+MOUND_SPREAD = 0.9
+MOUND_HEIGHT_RANGE_M = (0.25, 0.8)
+MOUND_SIGMA_RANGE_M = (4.0, 9.0)
+#: Undulation: wavenumbers (rad/m) along x and y, amplitude (m) around an offset (in amplitudes).
+UNDULATION_WAVENUMBER_RANGE = (0.15, 0.35)
+UNDULATION_AMPLITUDE_M = 0.06
+UNDULATION_OFFSET = 2.0
+#: The terrain ramps down to the flat ground over this distance (m) from the grid's edge.
+EDGE_RAMP_M = 6.0
+
 
 class Terrain:
     """Heightfield ground, exactly as pybullet triangulates it.
@@ -55,16 +68,16 @@ def terrain_heights(
     gx, gy = np.meshgrid(xs, xs)
     h = np.zeros_like(gx)
     half = xs[-1]
-    for _ in range(int(rng.integers(7, 12))):
-        c = rng.uniform(-0.9 * half, 0.9 * half, 2)
-        amp = rng.uniform(0.25, 0.8)
-        sig = rng.uniform(4.0, 9.0)
+    for _ in range(int(rng.integers(MOUND_COUNT[0], MOUND_COUNT[1] + 1))):
+        c = rng.uniform(-MOUND_SPREAD * half, MOUND_SPREAD * half, 2)
+        amp = rng.uniform(*MOUND_HEIGHT_RANGE_M)
+        sig = rng.uniform(*MOUND_SIGMA_RANGE_M)
         h += amp * np.exp(-((gx - c[0]) ** 2 + (gy - c[1]) ** 2) / (2.0 * sig**2))
-    k = rng.uniform(0.15, 0.35, 2)
+    k = rng.uniform(*UNDULATION_WAVENUMBER_RANGE, 2)
     ph = rng.uniform(0.0, 2.0 * math.pi, 2)
-    h += 0.06 * (2.0 + np.sin(k[0] * gx + ph[0]) + np.sin(k[1] * gy + ph[1]))
+    h += UNDULATION_AMPLITUDE_M * (UNDULATION_OFFSET + np.sin(k[0] * gx + ph[0]) + np.sin(k[1] * gy + ph[1]))
     r = np.hypot(gx - target_xy[0], gy - target_xy[1])
     h *= smoothstep((r - flat_r_m[0]) / (flat_r_m[1] - flat_r_m[0]))
     edge = np.minimum(half - np.abs(gx), half - np.abs(gy))
-    h *= smoothstep(edge / 6.0)
+    h *= smoothstep(edge / EDGE_RAMP_M)
     return np.maximum(h, 0.0)

@@ -53,7 +53,7 @@ from .surfaces import (
     create_street,
 )
 from .textures import GRASS_TILE_M, create_textured_mesh_body, grass_image, solid_image
-from .vegetation import create_bush, create_rock, create_tree, tree_footprint_radius, tree_height
+from .vegetation import create_bush, create_rock, create_tree, tree_footprint_radius, tree_height, tree_trunk_radius
 
 __all__ = [
     "BUILDING_OVERHANG_M",
@@ -98,4 +98,5 @@ __all__ = [
     "sphere",
     "tree_footprint_radius",
     "tree_height",
+    "tree_trunk_radius",
 ]

@@ -26,7 +26,7 @@ def create_tree(
     (broadleaf, side lobes); total height: :func:`tree_height`.
     """
     r = crown_radius_m
-    trunk_r = float(np.clip(0.08 * r + 0.06, 0.1, 0.35))
+    trunk_r = tree_trunk_radius(r)
     parts: list[Part] = [
         cylinder((0.0, 0.0, trunk_height_m / 2.0), trunk_r, trunk_height_m, jitter(rng, BARK[:3], 0.04))
     ]
@@ -54,6 +54,11 @@ def create_tree(
                 )
             )
     return create_compound(client, parts, position_m, 0.0)
+
+
+def tree_trunk_radius(crown_radius_m: float) -> float:
+    """Trunk radius (m) of a :func:`create_tree` tree: grows with the crown, within 0.1–0.35 m."""
+    return float(np.clip(0.08 * crown_radius_m + 0.06, 0.1, 0.35))
 
 
 def tree_height(trunk_height_m: float, crown_radius_m: float, conifer: bool) -> float:
