@@ -23,15 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from llmland_schemas import (
-    CorridorPolytope,
-    LandingGate,
     MissionGoal,
     PlanSnapshot,
-    ReachDisc,
     SafetySpecMessage,
-    UnsafeBox,
     VehicleState,
-    vec3,
 )
 from llmland_schemas.frames import CameraFrame
 
@@ -44,6 +39,7 @@ from .path import Path, resample
 from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
 from .search import SearchConfig, plan
 from .settings import PlannerSettings
+from .snapshots import plan_snapshot
 from .world_model import WorldModel
 
 log = logging.getLogger(__name__)
@@ -54,8 +50,6 @@ CORRIDOR_EXIT_M = 0.3
 GROUND_FLOOR_MARGIN_M = 0.2
 #: A plan snapshot (for displays) goes out at least this often (s) and on every phase change.
 SNAPSHOT_PERIOD_S = 0.5
-#: Gate margins are shown clipped to ± this (m) (no people and no coverage limit: infinite).
-GATE_MARGIN_SHOWN_M = 99.0
 #: While holding, why the gate is closed is logged this often (s).
 GATE_LOG_PERIOD_S = 5.0
 #: Paths and holds keep this much (m) above the reach ceiling.
@@ -74,9 +68,6 @@ GOAL_MOVED_REPLAN_M = 0.3
 START_CLEARANCE_MARGIN_M = 0.3
 #: The nearest path point is looked for among this many points past the last progress.
 PROGRESS_WINDOW_POINTS = 40
-#: Plan snapshots carry every this-many-th path point and at most this many corridors.
-SNAPSHOT_PATH_STRIDE = 2
-SNAPSHOT_MAX_CORRIDORS = 20
 
 
 @dataclass
@@ -384,36 +375,8 @@ class Planner:
                 hs = None
         return ref.p, ref.v, hs
 
-    def _gate_view(self, around: Surroundings | None) -> LandingGate | None:
-        """The last gate decision for displays, with each possible person's reachable disc."""
-        landing = self.landing
-        gate = landing.last_gate if landing is not None else None
-        if gate is None or landing is None:
-            return None
-        people = around.people if around is not None else []
-        discs = [ReachDisc(track_id=p.track_id, label=p.label,
-                           centre_m=(float(p.centre_xy[0]), float(p.centre_xy[1]), float(landing.target_m[2])),
-                           radius_m=p.radius_m + landing.bounds.reach_m(p.age_s + gate.duration_s, p.speed_mps))
-                 for p in people]
-        return LandingGate(open=gate.open, duration_s=gate.duration_s,
-                           margin_m=float(np.clip(gate.clearance.margin_m, -GATE_MARGIN_SHOWN_M, GATE_MARGIN_SHOWN_M)),
-                           binding=gate.clearance.track_id, disc_clear=gate.disc_clear,
-                           coverage_m=around.coverage_m if around is not None else 0.0, people=discs)
-
     def _snapshot(self, t: float, regions: list[UnsafeRegion], around: Surroundings | None) -> PlanSnapshot:
-        act = self.active
         assert self.mission is not None
-        return PlanSnapshot(
-            drone_id=self.settings.drone_id,
-            stamp=t,
-            mode=self.landing.phase.value if self.landing else "",
-            reference_m=[vec3(q) for q in act.path.p[::SNAPSHOT_PATH_STRIDE]] if act else [],
-            corridors=[CorridorPolytope(A=[vec3(r) for r in c.A], b=[float(x) for x in c.b])
-                       for c in (act.corridors if act else [])][:SNAPSHOT_MAX_CORRIDORS],
-            regions=[UnsafeBox(obj_id=r.obj_id, lo_m=vec3(r.lo), hi_m=vec3(r.hi),
-                               label=r.label, is_dynamic=r.is_dynamic) for r in regions],
-            search_ms=act.search_ms if act else None,
-            episode_id=self.mission.episode_id,
-            target_m=vec3(self.landing.target_m) if self.landing else None,
-            gate=self._gate_view(around),
-        )
+        act = self.active
+        return plan_snapshot(self.settings.drone_id, self.mission.episode_id, t, self.landing, regions, around,
+                             act.path if act else None, act.corridors if act else [], act.search_ms if act else None)
