@@ -4,8 +4,7 @@
   :class:`LatestFrameWorker` (the Zenoh thread does no work), which decodes, checks and
   captions only the newest frame; frames replaced while it is busy are counted as dropped;
 * publishes ``llmland/<d>/vle/scene`` (:class:`SceneDescription`) per captioned frame;
-* subscribes whatever else the backend asks for in ``bus_inputs()`` (the oracle:
-  ``llmland/<d>/sim/truth``);
+* subscribes ``llmland/<d>/sim/truth`` only with the oracle backend;
 * serves the queryable ``llmland/vle/caption``: query payload = PNG/JPEG bytes, optional
   selector parameter ``kind=frame|object`` (default ``frame``) → reply JSON :class:`Caption`,
   or ``reply_err`` with a message for a bad image; queries run on their own thread;
