@@ -23,15 +23,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 from llmland_schemas import (
-    CorridorPolytope,
-    LandingGate,
     MissionGoal,
     PlanSnapshot,
-    ReachDisc,
     SafetySpecMessage,
-    UnsafeBox,
     VehicleState,
-    vec3,
 )
 from llmland_schemas.frames import CameraFrame
 
@@ -44,6 +39,7 @@ from .path import Path, resample
 from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
 from .search import SearchConfig, plan
 from .settings import PlannerSettings
+from .snapshots import plan_snapshot
 from .world_model import WorldModel
 
 log = logging.getLogger(__name__)
@@ -54,8 +50,6 @@ CORRIDOR_EXIT_M = 0.3
 GROUND_FLOOR_MARGIN_M = 0.2
 #: A plan snapshot (for displays) goes out at least this often (s) and on every phase change.
 SNAPSHOT_PERIOD_S = 0.5
-#: Gate margins are shown clipped to ± this (m) (no people and no coverage limit: infinite).
-GATE_MARGIN_SHOWN_M = 99.0
 #: While holding, why the gate is closed is logged this often (s).
 GATE_LOG_PERIOD_S = 5.0
 #: Paths and holds keep this much (m) above the reach ceiling.
@@ -68,6 +62,14 @@ YAW_ATTENTION_M = 12.0
 YAW_ALONG_PATH_MIN_M = 1.0
 #: a failed search doubles the next one's budget, at most this many times in a row (×16)
 SEARCH_BUDGET_DOUBLINGS = 4
+#: The search's workspace spans ± this (m) horizontally (up to ``max_altitude_m``).
+WORKSPACE_HALF_XY_M = 100.0
+#: A goal that moved farther than this (m) from the active plan's is replanned for.
+GOAL_MOVED_REPLAN_M = 0.3
+#: Inside a region at the start, the start clearance reaches this far (m) beyond its depth.
+START_CLEARANCE_MARGIN_M = 0.3
+#: The nearest path point is looked for among this many points past the last progress.
+PROGRESS_WINDOW_POINTS = 40
 
 
 @dataclass
@@ -107,7 +109,8 @@ class Planner:
         self.settings = s = settings or PlannerSettings()
         self.params = params or ModelParams()
         self.mpc = MpcController(self.params, horizon=s.horizon, dt=s.mpc_dt_s, max_halfspaces=s.max_halfspaces)
-        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=(100.0, 100.0, s.max_altitude_m))
+        workspace_hi = (WORKSPACE_HALF_XY_M, WORKSPACE_HALF_XY_M, s.max_altitude_m)
+        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
         self._lock = threading.Lock()
         self.mission: MissionGoal | None = None
         self.world: WorldModel | None = None
@@ -148,7 +151,7 @@ class Planner:
             self._logged_phase, self._logged_t = None, -1e9
             self._snap_phase, self._snap_t = None, -1e9
             d = np.subtract(mission.target_m, mission.start_m)[:2]
-            self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > 1.0 else 0.0
+            self._yaw_ref = float(math.atan2(d[1], d[0])) if np.linalg.norm(d) > YAW_ALONG_PATH_MIN_M else 0.0
             self.mpc.reset()
         log.info("planner: episode %s method=%s target=%s", mission.episode_id, mission.method, mission.target_m)
 
@@ -317,7 +320,7 @@ class Planner:
         need = (
             self._force_replan
             or self.active is None
-            or float(np.linalg.norm(self.active.goal_m - goal)) > 0.3
+            or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
             or t - self._last_replan_s >= self.settings.replan_period_s
             or self._path_blocked(self.active.path, regions)
         )
@@ -347,8 +350,8 @@ class Planner:
             # Clearance region at the start (paper App.): if a region has grown over the
             # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
             depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
-            cfg = replace(self.search_cfg, clearance_radius_m=max(self.search_cfg.clearance_radius_m, depth + 0.3),
-                          z_floor_m=self._reach_floor(pos),
+            clearance = max(self.search_cfg.clearance_radius_m, depth + START_CLEARANCE_MARGIN_M)
+            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=self._reach_floor(pos),
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)
             path = plan(pos, vel, job.goal_m, regions, cfg)
@@ -375,7 +378,7 @@ class Planner:
             return np.tile(pos, (n + 1, 1)), np.zeros((n + 1, 3)), None
         p = act.path
         lo = act.progress_idx
-        hi = min(len(p.p), lo + 40)
+        hi = min(len(p.p), lo + PROGRESS_WINDOW_POINTS)
         idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
         act.progress_idx = idx
         t_ref = float(p.t[idx]) + dt
@@ -391,36 +394,8 @@ class Planner:
                 hs = None
         return ref.p, ref.v, hs
 
-    def _gate_view(self, around: Surroundings | None) -> LandingGate | None:
-        """The last gate decision for displays, with each possible person's reachable disc."""
-        landing = self.landing
-        gate = landing.last_gate if landing is not None else None
-        if gate is None or landing is None:
-            return None
-        people = around.people if around is not None else []
-        discs = [ReachDisc(track_id=p.track_id, label=p.label,
-                           centre_m=(float(p.centre_xy[0]), float(p.centre_xy[1]), float(landing.target_m[2])),
-                           radius_m=p.radius_m + landing.bounds.reach_m(p.age_s + gate.duration_s, p.speed_mps))
-                 for p in people]
-        return LandingGate(open=gate.open, duration_s=gate.duration_s,
-                           margin_m=float(np.clip(gate.clearance.margin_m, -GATE_MARGIN_SHOWN_M, GATE_MARGIN_SHOWN_M)),
-                           binding=gate.clearance.track_id, disc_clear=gate.disc_clear,
-                           coverage_m=around.coverage_m if around is not None else 0.0, people=discs)
-
     def _snapshot(self, t: float, regions: list[UnsafeRegion], around: Surroundings | None) -> PlanSnapshot:
-        act = self.active
         assert self.mission is not None
-        return PlanSnapshot(
-            drone_id=self.settings.drone_id,
-            stamp=t,
-            mode=self.landing.phase.value if self.landing else "",
-            reference_m=[vec3(q) for q in act.path.p[::2]] if act else [],
-            corridors=[CorridorPolytope(A=[vec3(r) for r in c.A], b=[float(x) for x in c.b])
-                       for c in (act.corridors if act else [])][:20],
-            regions=[UnsafeBox(obj_id=r.obj_id, lo_m=vec3(r.lo), hi_m=vec3(r.hi),
-                               label=r.label, is_dynamic=r.is_dynamic) for r in regions],
-            search_ms=act.search_ms if act else None,
-            episode_id=self.mission.episode_id,
-            target_m=vec3(self.landing.target_m) if self.landing else None,
-            gate=self._gate_view(around),
-        )
+        act = self.active
+        return plan_snapshot(self.settings.drone_id, self.mission.episode_id, t, self.landing, regions, around,
+                             act.path if act else None, act.corridors if act else [], act.search_ms if act else None)

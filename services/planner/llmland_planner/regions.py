@@ -33,6 +33,10 @@ BoolArray = NDArray[np.bool_]
 MAX_SWEEP_SLICES = 8
 #: vertical clearance (m) kept above an obstacle's top, at most its buffer
 OVERFLY_CLEARANCE_M = 0.5
+#: regions reach this far (m) below the ground, so the floor never leaves a gap
+BELOW_GROUND_M = 1.0
+#: a moving obstacle's sweep is cut into slices of this duration (s)
+SWEEP_SLICE_S = 0.25
 
 
 @dataclass
@@ -69,31 +73,30 @@ class UnsafeRegion:
         inside = float(min(np.max(d), 0.0))
         return outside + inside
 
-    def closest_point(self, p: ArrayLike) -> FloatArray:
-        """Point of the box ``(3,)`` nearest to ``p (3,)``."""
-        return np.clip(np.asarray(p, dtype=float), self.lo, self.hi)
-
 
 def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer_m: float,
                   z_min: float, velocity_xy: ArrayLike | None = None, horizon_s: float = 0.0,
-                  dt_s: float = 0.25, *, obj_id: str = "", label: str = "",
-                  z_ground_m: float = 0.0) -> list[UnsafeRegion]:
+                  dt_s: float = SWEEP_SLICE_S, *, obj_id: str = "", label: str = "",
+                  z_ground_m: float = 0.0, is_dynamic: bool | None = None) -> list[UnsafeRegion]:
     """Boxes for a cylindrical obstacle (centre ``(2,)`` m, radius, height above ground).
 
     Static obstacles (no velocity or ``horizon_s <= 0``) give one box. Dynamic ones give one
     box per slice of ``dt_s`` (at most :data:`MAX_SWEEP_SLICES`, slices widen when capped),
-    slice ``i`` covering the footprint between ``t_i`` and ``t_{i+1}``.
+    slice ``i`` covering the footprint between ``t_i`` and ``t_{i+1}``. The boxes'
+    ``is_dynamic`` is ``is_dynamic`` when given (a person standing still is dynamic), else
+    whether the obstacle moves.
     """
     c = np.asarray(center_xy, dtype=float).reshape(2)
     half = radius_m + buffer_m
     top = z_ground_m + max(height_m + min(buffer_m, OVERFLY_CLEARANCE_M), z_min)
-    bottom = z_ground_m - 1.0
+    bottom = z_ground_m - BELOW_GROUND_M
     vel = None if velocity_xy is None else np.asarray(velocity_xy, dtype=float).reshape(2)
     moving = vel is not None and float(np.linalg.norm(vel)) > 1e-9
+    dynamic = moving if is_dynamic is None else is_dynamic
     if not moving or vel is None or horizon_s <= 0.0:
         return [UnsafeRegion(np.array([c[0] - half, c[1] - half, bottom]),
                              np.array([c[0] + half, c[1] + half, top]), obj_id, label,
-                             moving, buffer_m, z_min)]
+                             dynamic, buffer_m, z_min)]
     n = max(1, min(MAX_SWEEP_SLICES, math.ceil(horizon_s / max(dt_s, 1e-6))))
     times = np.linspace(0.0, horizon_s, n + 1)
     out: list[UnsafeRegion] = []
@@ -101,7 +104,7 @@ def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer
         c0, c1 = c + vel * t0, c + vel * t1
         lo_xy, hi_xy = np.minimum(c0, c1) - half, np.maximum(c0, c1) + half
         out.append(UnsafeRegion(np.array([lo_xy[0], lo_xy[1], bottom]),
-                                np.array([hi_xy[0], hi_xy[1], top]), obj_id, label, True,
+                                np.array([hi_xy[0], hi_xy[1], top]), obj_id, label, dynamic,
                                 buffer_m, z_min, {"t0_s": float(t0), "t1_s": float(t1)}))
     return out
 

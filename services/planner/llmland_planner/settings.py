@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from .tracking import FORGET_AFTER_S, GATE_M, PREDICT_CAP_S
+
 
 class PlannerSettings(BaseSettings):
     """Everything the planner service reads (SI units)."""
@@ -38,10 +40,11 @@ class PlannerSettings(BaseSettings):
     moving_speed_mps: float = 0.25
     moving_displacement_m: float = 1.0
     #: out of view, constant-velocity prediction is trusted this long (s)
-    predict_cap_s: float = 1.0
-    track_gate_m: float = 1.5
+    predict_cap_s: float = PREDICT_CAP_S
+    #: a track and a blob this close (m) are associated
+    track_gate_m: float = GATE_M
     #: a track that should have been seen but was not is dropped after this long (s)
-    track_forget_s: float = 2.0
+    track_forget_s: float = FORGET_AFTER_S
     blob_stride: int = 2
     #: depth points less than this (m) above the estimated ground are ground
     ground_tolerance_m: float = 0.25

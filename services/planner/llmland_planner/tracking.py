@@ -27,10 +27,27 @@ from llmland_schemas.depth import Blob
 from scipy.optimize import linear_sum_assignment
 
 from llmland_planner.dynamics import FloatArray
+from llmland_planner.specs import AttachedSpec
 
 log = logging.getLogger(__name__)
 
 VisibleFn = Callable[[FloatArray], bool]
+
+#: Association gate (m) between a track's prediction and a blob.
+GATE_M = 1.5
+#: A visible track missed this long (s) is dropped.
+FORGET_AFTER_S = 2.0
+#: Any track unseen this long (s) is dropped, in view or not.
+FORGET_OUT_OF_VIEW_AFTER_S = 30.0
+#: Smoothing weight of the newest velocity sample (0..1].
+VELOCITY_ALPHA = 0.5
+#: Constant-velocity prediction is trusted this long (s).
+PREDICT_CAP_S = 1.0
+#: An unseen track's gate widens at this speed (m/s) up to GATE_MAX_M (m), toward blobs whose
+#: height differs by at most GATE_HEIGHT_ALIKE_M (m).
+GATE_GROWTH_MPS = 1.5
+GATE_MAX_M = 5.0
+GATE_HEIGHT_ALIKE_M = 0.4
 
 
 @dataclass
@@ -40,8 +57,8 @@ class TrackedObstacle:
     ``centroid_m``, ``lo_m``, ``hi_m`` (3,) are from the last matched blob at ``last_seen_s``
     (visible-surface bounds, see :class:`~llmland_schemas.depth.Blob`); ``velocity_mps`` (3,)
     is the horizontal velocity estimate (zero until ``hits >= min_hits_for_velocity``);
-    ``missed_s`` is the time the track should have been seen but was not; ``meta`` is free
-    for callers (e.g. a semantic spec attached with :meth:`ObstacleTracker.match`).
+    ``missed_s`` is the time the track should have been seen but was not; ``spec`` is the
+    semantic spec the world model attached; ``meta`` is free for callers.
     """
 
     track_id: str
@@ -60,6 +77,8 @@ class TrackedObstacle:
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
+    #: the semantic spec attached to it (by the world model), if any
+    spec: AttachedSpec | None = None
 
 
 class ObstacleTracker:
@@ -74,14 +93,14 @@ class ObstacleTracker:
 
     def __init__(
         self,
-        gate_m: float = 1.5,
-        forget_after_s: float = 2.0,
-        velocity_alpha: float = 0.5,
+        gate_m: float = GATE_M,
+        forget_after_s: float = FORGET_AFTER_S,
+        velocity_alpha: float = VELOCITY_ALPHA,
         min_hits_for_velocity: int = 2,
-        forget_out_of_view_after_s: float = 30.0,
-        predict_cap_s: float = 1.0,
-        gate_growth_mps: float = 1.5,
-        gate_max_m: float = 5.0,
+        forget_out_of_view_after_s: float = FORGET_OUT_OF_VIEW_AFTER_S,
+        predict_cap_s: float = PREDICT_CAP_S,
+        gate_growth_mps: float = GATE_GROWTH_MPS,
+        gate_max_m: float = GATE_MAX_M,
     ) -> None:
         if not 0.0 < velocity_alpha <= 1.0:
             raise ValueError(f"velocity_alpha must be in (0, 1], got {velocity_alpha}")
@@ -155,7 +174,7 @@ class ObstacleTracker:
         wide = np.minimum(self.gate_m + self.gate_growth_mps * age, max(self.gate_m, self.gate_max_m))
         t_h = np.array([t.hi_m[2] - t.lo_m[2] for t in self._tracks])
         b_h = np.array([b.hi_m[2] - b.lo_m[2] for b in blobs])
-        alike = np.abs(t_h[:, None] - b_h[None, :]) <= 0.4
+        alike = np.abs(t_h[:, None] - b_h[None, :]) <= GATE_HEIGHT_ALIKE_M
         return np.where(alike, wide[:, None], self.gate_m)
 
     def _new_track(self, blob: Blob, stamp_s: float, source: str = "") -> TrackedObstacle:

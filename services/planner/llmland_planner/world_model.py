@@ -41,25 +41,17 @@ from .ground import GroundMap
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
 from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
+from .specs import AttachedSpec, PendingSpec, more_careful
 from .tracking import ObstacleTracker, TrackedObstacle, VisibleFn
 
 log = logging.getLogger(__name__)
 
 #: every Nth of the blob points (each way) votes in the ground map
 GROUND_POINT_STRIDE = 2
-
-
-@dataclass
-class PendingSpec:
-    """A spec waiting for its release."""
-
-    apply_at_s: float
-    #: the source frame's stamp (s): in lockstep the sim says up to which stamp specs apply
-    stamp_s: float
-    position_m: FloatArray
-    spec: SafetySpec
-    #: horizontal radius (m) of the object: every track within it takes the spec
-    radius_m: float = 0.0
+#: points nearer than this (m) in front of a camera are outside its view
+FRUSTUM_NEAR_M = 0.1
+#: a track up to this much (m) taller than the tallest person may still be one
+PERSON_HEIGHT_SLACK_M = 0.3
 
 
 @dataclass(frozen=True)
@@ -85,20 +77,12 @@ def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
 
     def visible(p: FloatArray) -> bool:
         q = t_cw[:3, :3] @ np.asarray(p, dtype=float) + t_cw[:3, 3]
-        if q[2] <= 0.1 or q[2] > max_range_m:
+        if q[2] <= FRUSTUM_NEAR_M or q[2] > max_range_m:
             return False
         u, v = k.fx * q[0] / q[2] + k.cx, k.fy * q[1] / q[2] + k.cy
         return bool(0 <= u < k.width and 0 <= v < k.height)
 
     return visible
-
-
-def more_careful(a: SafetySpec, b: SafetySpec) -> SafetySpec:
-    """The spec asking more of the drone: human first, dynamic, the larger buffer, then ``z_min``."""
-    def rank(s: SafetySpec) -> tuple[int, bool, float, float]:
-        return (2 if s.is_human else 1 if s.is_human is None else 0, s.is_dynamic, s.buffer_m, s.z_min)
-
-    return b if rank(b) > rank(a) else a
 
 
 def half_fov_rad(frame: CameraFrame) -> float:
@@ -172,10 +156,7 @@ class WorldModel:
         if not self.semantic:
             return
         release = msg.stamp + msg.latency_ms / 1e3
-        for obj in msg.objects:
-            radius = 0.5 * max(obj.size_m[0], obj.size_m[1])
-            self.pending.append(PendingSpec(release, msg.stamp, np.asarray(obj.centroid_m, dtype=float), obj.spec,
-                                            radius))
+        self.pending += [PendingSpec(release, msg.stamp, obj) for obj in msg.objects]
         self.spec_latencies_ms.append(msg.latency_ms)
 
     def release_specs(self, t_s: float, released_upto_s: float | None = None, *, lockstep: bool = False) -> None:
@@ -210,9 +191,7 @@ class WorldModel:
                 prev = batch.get(track.track_id)
                 batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
         for track, spec in batch.values():
-            track.meta["spec"] = spec
-            track.meta["spec_t"] = t_s
-            track.meta["spec_height_m"] = float(track.hi_m[2] - track.lo_m[2])
+            track.spec = AttachedSpec(spec, t_s, float(track.hi_m[2] - track.lo_m[2]))
             self.specs_applied += 1
             self.version += 1
 
@@ -226,15 +205,15 @@ class WorldModel:
         ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
         blob) the spec is void. A static thing that moves is caught by :meth:`view`.
         """
-        spec: SafetySpec | None = track.meta.get("spec")
-        if spec is None:
+        attached = track.spec
+        if attached is None:
             return SafetySpec.conservative()
-        s = self.settings
+        s, spec = self.settings, attached.spec
         if spec.is_dynamic or spec.is_human is not False:
-            if t_s - float(track.meta.get("spec_t", -1e9)) > s.spec_stale_s:
+            if t_s - attached.applied_s > s.spec_stale_s:
                 return SafetySpec.conservative()
         else:
-            height, was = float(track.hi_m[2] - track.lo_m[2]), float(track.meta.get("spec_height_m", 0.0))
+            height, was = float(track.hi_m[2] - track.lo_m[2]), attached.height_m
             if was < s.person_min_height_m <= height - s.spec_height_tolerance_m:  # grew to a person's height
                 return SafetySpec.conservative()
         return spec
@@ -251,7 +230,8 @@ class WorldModel:
         s = self.settings
         height = float(tr.hi_m[2] - tr.lo_m[2])
         radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
-        return s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + 0.3 and radius <= s.person_max_radius_m
+        tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
+        return tall_enough and radius <= s.person_max_radius_m
 
     def view(self, tr: TrackedObstacle, t_s: float) -> TrackView:
         """How the method sees one track at ``t_s``.
@@ -317,13 +297,10 @@ class WorldModel:
             centre, radius, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
             top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
             buffer_m = self._yielding_buffer(v, centre, radius, v.buffer_m, top)
-            boxes = from_obstacle(centre, radius, height, buffer_m, v.z_min,
-                                  velocity_xy=tr.velocity_mps[:2] if v.moving else None,
-                                  horizon_s=s.sweep_horizon_s if v.moving else 0.0,
-                                  obj_id=tr.track_id, label=v.label, z_ground_m=z0)
-            for box in boxes:
-                box.is_dynamic = v.dynamic  # a standing person is still dynamic
-            out += boxes
+            out += from_obstacle(centre, radius, height, buffer_m, v.z_min,
+                                 velocity_xy=tr.velocity_mps[:2] if v.moving else None,
+                                 horizon_s=s.sweep_horizon_s if v.moving else 0.0,
+                                 obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
         return out
 
     def landing_regions(self, t_s: float, duration_s: float) -> list[UnsafeRegion]:

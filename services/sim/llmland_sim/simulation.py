@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
@@ -26,7 +25,7 @@ from llmland_schemas import (
     vec3,
 )
 
-from .camera import RgbdCamera
+from .camera import RgbdCamera, release_renderer
 from .scoring import EpisodeScore
 from .settings import SimSettings
 from .vehicle import DEFAULT_PARAMS, QuadParams, Quadrotor, ReferencePositionController
@@ -46,13 +45,6 @@ CRASH_SPEED_MPS = 2.5
 #: body, so neither the body nor the arms are in view.
 DOWN_CAMERA_PITCH_DEG = 90.0
 DOWN_CAMERA_MOUNT_M = (0.0, 0.0, -0.04)
-
-
-@dataclass
-class TickInfo:
-    t_s: float
-    seq: int
-    used_failsafe: bool
 
 
 class Simulation:
@@ -311,6 +303,7 @@ class Simulation:
         )
 
     def close(self) -> None:
+        release_renderer(self.client)  # unload the EGL plugin, if one was loaded, before disconnecting
         try:
             p.disconnect(physicsClientId=self.client)
         except p.error:

@@ -24,7 +24,7 @@ from llmland_sim.world import (
     footprint_distance,
 )
 from llmland_sim.world.actors import INTERNAL_DT_S, PED_SPEED_RANGE_MPS, VEH_SPEED_RANGE_MPS, actor_rng
-from llmland_sim.world.worlds import OBSTACLE_GAP_M, PED_START_CLEARANCE_M
+from llmland_sim.world.layout import OBSTACLE_GAP_M, PED_START_CLEARANCE_M
 
 logger = logging.getLogger(__name__)
 

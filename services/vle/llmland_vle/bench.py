@@ -58,36 +58,12 @@ def synthetic_frames(n: int, seed: int = 0) -> list[bytes]:
     return out
 
 
-def _sim_frames(n: int) -> list[bytes]:
-    import pybullet as p
-    from llmland_schemas import MissionGoal
-    from llmland_sim.settings import SimSettings
-    from llmland_sim.simulation import Simulation
-
-    frames: list[bytes] = []
-    for w, world in enumerate(("open_field", "urban", "forest_edge")):
-        sim = Simulation(SimSettings())
-        try:
-            sim.reset(MissionGoal(episode_id=f"vle-bench-{world}", world=world, seed=7))  # type: ignore[arg-type]
-            assert sim.world is not None and sim.quad is not None
-            start, target = sim.quad_start_m, sim.world.target_m
-            m = (n - len(frames)) // (3 - w)
-            for k in range(m):  # along the approach, looking around a little
-                a = k / max(m, 1)
-                pos = (1 - a) * start + a * (target + np.array([0.0, 0.0, 2.0]))
-                yaw = math.atan2(target[1] - start[1], target[0] - start[0]) + 0.4 * math.sin(k)
-                quat = p.getQuaternionFromEuler([0, 0, yaw])
-                p.resetBasePositionAndOrientation(sim.quad.body_id, pos.tolist(), quat, physicsClientId=sim.client)
-                sim.world.step_actors(0.2)
-                frames.append(sim.camera_frame())
-        finally:
-            sim.close()
-    return frames
-
-
 def typical_frames(n: int = 12) -> list[bytes]:
+    """Simulator frames when the simulator is installed (the ``train`` extra), else synthetic ones."""
     try:
-        return _sim_frames(n)
+        from .simrender import approach_frames
+
+        return approach_frames(n)
     except ImportError:
         log.info("llmland_sim not installed: benchmarking synthetic frames")
         return synthetic_frames(n)
@@ -143,10 +119,13 @@ def run_bench(quick: bool = False) -> dict[str, Any]:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="llmland-vle bench", description=__doc__)
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The ``bench`` subcommand's options."""
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, a 3 s stream")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``llmland-vle bench``: the figures as one JSON object on stdout."""
     logging.basicConfig(level=logging.WARNING)
     sys.stdout.write(json.dumps(run_bench(quick=args.quick)) + "\n")
     return 0

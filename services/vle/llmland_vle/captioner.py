@@ -8,24 +8,27 @@ version that produced it and its latency (for a batch: the batch's wall time div
 size).
 
 Backends that need simulator truth rather than pixels (``oracle``) also implement
-:class:`SceneCaptioner`; the service then hands them the whole frame and its blobs.
+:class:`SceneCaptioner`; the service then hands them the whole frame and its blobs. A backend
+that needs bus messages besides the frames lists them in ``bus_inputs()`` (:class:`BusInput`);
+the service subscribes them for it without knowing which backend it is. The backends and
+their factory live beside this interface (:mod:`.backends`), never in it.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 
 import numpy as np
-from llmland_schemas import Caption
+from llmland_schemas import Caption, Topic
+from pydantic import BaseModel
 
 if TYPE_CHECKING:
     from llmland_schemas.depth import Blob
     from llmland_schemas.frames import CameraFrame
-
-    from .settings import VleSettings
 
 CaptionKind = Literal["frame", "object"]
 
@@ -81,20 +84,22 @@ class SceneCaptioner(Protocol):
     def caption_scene(self, frame: CameraFrame, blobs: Sequence[Blob]) -> tuple[Caption, list[Caption]]: ...
 
 
-def make_captioner(settings: VleSettings) -> Captioner:
-    """The backend named by ``settings.backend`` (simcap, blip or oracle)."""
-    if settings.backend == "simcap":
-        from .simcap.backend import SimcapCaptioner
+@dataclass(frozen=True)
+class BusInput:
+    """A per-drone topic a backend reads, the message type on it, and what to do with each message."""
 
-        return SimcapCaptioner(settings.model_path, threads=settings.threads, crop_size=settings.crop_size)
-    if settings.backend == "blip":
-        from .blip import BlipCaptioner
+    topic: Topic
+    message: type[BaseModel]
+    handle: Callable[[Any], None]
 
-        if settings.model_path is None:
-            raise ValueError("the blip backend needs LLMLAND_VLE_MODEL_PATH (a local BLIP directory)")
-        return BlipCaptioner(settings.model_path, threads=settings.threads)
-    if settings.backend == "oracle":
-        from .oracle import OracleCaptioner
 
-        return OracleCaptioner(noise=settings.oracle_noise, seed=settings.oracle_seed)
-    raise ValueError(f"unknown captioner backend {settings.backend!r}")
+@runtime_checkable
+class ReadsBus(Protocol):
+    """A backend that needs bus messages besides the camera frames (the oracle: ``sim/truth``)."""
+
+    def bus_inputs(self) -> list[BusInput]: ...
+
+
+def bus_inputs(captioner: object) -> list[BusInput]:
+    """The bus inputs ``captioner`` asks for (none for pixel backends)."""
+    return captioner.bus_inputs() if isinstance(captioner, ReadsBus) else []

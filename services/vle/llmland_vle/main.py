@@ -1,19 +1,27 @@
-"""``llmland-vle``: run the VLE service, or ``llmland-vle train`` / ``llmland-vle bench``.
+"""``llmland-vle``: the VLE service, and the commands that make and measure its model.
 
-* ``llmland-vle`` — the service (settings from ``LLMLAND_VLE_*``, bus from ``ZENOH_*``);
+* ``llmland-vle`` or ``llmland-vle serve`` — the service: camera frames in, scene descriptions
+  out, the caption queryable (settings from ``LLMLAND_VLE_*``, bus from ``ZENOH_*``);
   SIGTERM / Ctrl-C stop it cleanly.
 * ``llmland-vle train [...]`` — regenerate simcap's data from seeds, train, evaluate on
   held-out seeds, write the weights and model card (``llmland-vle train --help``).
 * ``llmland-vle bench [--quick]`` — latency and drop figures as one JSON object.
+
+``train`` and ``bench`` render with the simulator (the ``train`` extra) through
+:mod:`llmland_vle.simrender`; ``serve`` never imports it.
 """
 
 from __future__ import annotations
 
+import argparse
 import logging
 import sys
 
 from llmland_schemas.bus import Bus
 from llmland_schemas.service import configure_logging, shutdown_event
+
+from . import bench
+from .training import cli as training_cli
 
 log = logging.getLogger("llmland.vle")
 
@@ -21,7 +29,8 @@ log = logging.getLogger("llmland.vle")
 STATS_PERIOD_S = 30.0
 
 
-def serve() -> int:
+def serve(_args: argparse.Namespace | None = None) -> int:
+    """Run the service until SIGTERM / Ctrl-C, logging its statistics every :data:`STATS_PERIOD_S`."""
     from .service import VleService
     from .settings import VleSettings
 
@@ -39,23 +48,29 @@ def serve() -> int:
     return 0
 
 
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="llmland-vle", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.set_defaults(run=serve)
+    sub = ap.add_subparsers(title="commands", metavar="{serve,train,bench}")
+    sub.add_parser("serve", help="run the service (the default)").set_defaults(run=serve)
+    train = sub.add_parser("train", help="train simcap from seeded renders", description=training_cli.__doc__)
+    training_cli.add_arguments(train)
+    train.set_defaults(run=training_cli.run)
+    bench_p = sub.add_parser("bench", help="latency and drop figures (JSON)", description=bench.__doc__)
+    bench.add_arguments(bench_p)
+    bench_p.set_defaults(run=bench.run)
+    return ap
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = sys.argv[1:] if argv is None else list(argv)
-    if args and args[0] == "train":
-        from .training.cli import main as train_main
-
-        return train_main(args[1:])
-    if args and args[0] == "bench":
-        from .bench import main as bench_main
-
-        return bench_main(args[1:])
-    if args and args[0] in ("-h", "--help"):
-        sys.stdout.write(__doc__ or "")
-        return 0
-    if args:
-        sys.stderr.write(f"unknown arguments {args}; try llmland-vle --help\n")
-        return 2
-    return serve()
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error (2)
+        return exc.code if isinstance(exc.code, int) else 2
+    code: int = args.run(args)
+    return code
 
 
 if __name__ == "__main__":

@@ -20,11 +20,11 @@ from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
-from llmland_schemas import Caption, GroundTruth
+from llmland_schemas import Caption, GroundTruth, Topic
 from llmland_schemas.depth import Blob
 from llmland_schemas.frames import CameraFrame
 
-from .captioner import CaptionKind, CaptionUnavailableError
+from .captioner import BusInput, CaptionKind, CaptionUnavailableError
 from .captions import WORD_CLASS, crop_caption, frame_caption, vehicle_noun
 from .matching import items_from_truth, match_position
 
@@ -60,6 +60,10 @@ class OracleCaptioner:
     def on_truth(self, msg: GroundTruth) -> None:
         with self._lock:
             self._truth.append(msg)
+
+    def bus_inputs(self) -> list[BusInput]:
+        """The service feeds it the drone's ``sim/truth``."""
+        return [BusInput(Topic.TRUTH, GroundTruth, self.on_truth)]
 
     def truth_for(self, stamp: float, episode_id: str = "") -> GroundTruth | None:
         """The stored truth of this episode closest in time to ``stamp``."""

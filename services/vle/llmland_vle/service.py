@@ -19,14 +19,14 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import zenoh
-from llmland_schemas import VLE_CAPTION_QUERY, GroundTruth, Topic, alive, encode, key
+from llmland_schemas import VLE_CAPTION_QUERY, Topic, alive, encode, key
 from llmland_schemas.bus import Bus
 from llmland_schemas.codec import MessageError
 from llmland_schemas.frames import peek_header
 
-from .captioner import Captioner, CaptionUnavailableError, make_captioner
+from .backends import make_captioner
+from .captioner import Captioner, CaptionUnavailableError, bus_inputs
 from .crops import ImageError, load_image
-from .oracle import OracleCaptioner
 from .pipeline import FrameProcessor
 from .settings import VleSettings
 from .worker import LatestFrameWorker
@@ -54,9 +54,8 @@ class VleService:
         d = settings.drone_id
         self.scene_key = key(d, Topic.SCENE)
         bus.subscribe_parsed(key(d, Topic.CAMERA), _raw, self._on_frame)  # type: ignore[type-var]
-        if isinstance(self.captioner, OracleCaptioner):
-            oracle = self.captioner
-            bus.subscribe(key(d, Topic.TRUTH), GroundTruth, lambda _k, m: oracle.on_truth(m))
+        for extra in bus_inputs(self.captioner):  # e.g. the oracle's sim/truth
+            bus.subscribe(key(d, extra.topic), extra.message, lambda _k, m, handle=extra.handle: handle(m))
         bus.queryable(VLE_CAPTION_QUERY, self._on_query)
         bus.announce(alive(d, "vle"))
         log.info("vle ready (drone %s, backend %s, model %s)", d, self.captioner.backend,

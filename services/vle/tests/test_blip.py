@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from llmland_vle.backends import make_captioner
 from llmland_vle.blip import build_tiny_blip
-from llmland_vle.captioner import make_captioner
 from llmland_vle.settings import VleSettings
 
 

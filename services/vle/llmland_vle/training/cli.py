@@ -55,8 +55,8 @@ def _data(cache: Path | None, name: str, seeds: list[int], renders: int) -> Rend
     return data
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="llmland-vle train", description=__doc__)
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The ``train`` subcommand's options."""
     ap.add_argument("--out", type=Path, default=DEFAULT_WEIGHTS_DIR, help="weights directory to write")
     ap.add_argument("--train-seeds", default="10000-10015")
     ap.add_argument("--eval-seeds", default="20000-20003")
@@ -68,7 +68,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threads", type=int, default=1, help="torch threads (results depend on it)")
     ap.add_argument("--data-cache", type=Path, default=None, help="cache rendered data here")
     ap.add_argument("--version", default=None, help="model version (default: date-seed)")
-    args = ap.parse_args(argv)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``llmland-vle train``: 0 when the held-out accuracy keeps the bounds, 1 below them, 2 on bad seeds."""
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname).1s %(name)s: %(message)s")
     logging.getLogger("llmland_sim").setLevel(logging.WARNING)
 
@@ -76,7 +79,8 @@ def main(argv: list[str] | None = None) -> int:
     train_seeds, eval_seeds = parse_seeds(args.train_seeds), parse_seeds(args.eval_seeds)
     val_seeds = parse_seeds(args.val_seeds)
     if set(train_seeds) & set(eval_seeds) or set(val_seeds) & (set(train_seeds) | set(eval_seeds)):
-        ap.error("training, validation and held-out seeds must be disjoint")
+        sys.stderr.write("llmland-vle train: training, validation and held-out seeds must be disjoint\n")
+        return 2
     tr = _data(args.data_cache, "train", train_seeds, args.renders)
     val = _data(args.data_cache, "val", val_seeds, args.eval_renders)
     ev = _data(args.data_cache, "eval", eval_seeds, args.eval_renders)

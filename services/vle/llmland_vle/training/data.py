@@ -1,6 +1,7 @@
 """Render captioned training / held-out data from seeded simulator worlds.
 
-For every (world, seed) a fresh pybullet client builds the world; actors walk and drive
+For every (world, seed) a fresh pybullet client builds the world (:func:`~llmland_vle.simrender.world_scene`,
+the VLE's one door to the simulator); actors walk and drive
 between renders; each render is taken from a sampled drone pose. From one render come:
 
 * seg crops — one per visible object, boxed by its segmentation mask (ground truth, used
@@ -18,6 +19,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from llmland_schemas.depth import find_blobs
@@ -25,11 +27,12 @@ from llmland_schemas.depth import find_blobs
 from ..captions import crop_caption, frame_caption, vehicle_noun
 from ..crops import crop_square, resize
 from ..matching import TruthItem, match_position
+from ..simrender import WORLD_NAMES, world_scene
 from .poses import object_colour, sample_pose, surface_at
 
 log = logging.getLogger(__name__)
 
-WORLDS = ("open_field", "urban", "forest_edge")
+WORLDS = WORLD_NAMES
 MIN_SEG_PX = 50
 #: Objects nearer the camera than this (m, nearest visible point) are not sampled: the
 #: drone never flies that close to an obstacle (1 m from a person is already a failure),
@@ -74,102 +77,108 @@ def _jitter_box(box: tuple[int, int, int, int], rng: np.random.Generator) -> tup
     return nu0, nv0, max(int(round(u1 + du1)), nu0 + 2), max(int(round(v1 + dv1)), nv0 + 2)
 
 
+def _add(out: RenderSet, crop: np.ndarray, caption: str, cls: str, pos_cls: str, source: str, group: str,
+         inside: float) -> None:
+    out.crops.append(crop)
+    out.captions.append(caption)
+    out.classes.append(cls)
+    out.pos_classes.append(pos_cls)
+    out.sources.append(source)
+    out.groups.append(group)
+    out.inside.append(inside)
+
+
+def _seg_crops(
+    out: RenderSet, world: Any, r: Any, rng: np.random.Generator, crop_size: int, group: str
+) -> tuple[dict[int, str], dict[int, bool], list[str]]:
+    """Seg crops of one render; returns the captions and nearness per body, and the frame's nouns."""
+    by_body = {o.body_id: o for o in world.objects}
+    ids, counts = np.unique(r.seg, return_counts=True)
+    seen = {int(i): int(c) for i, c in zip(ids, counts, strict=True) if int(i) in by_body}
+    captions: dict[int, str] = {}
+    near: dict[int, bool] = {}
+    nouns: list[str] = []
+    kept: dict[str, int] = {}
+    for body, n_px in sorted(seen.items(), key=lambda kv: -kv[1]):
+        o = by_body[body]
+        if n_px >= FRAME_MIN_PX:
+            noun = vehicle_noun(o.size_m) if o.cls == "vehicle" else o.cls
+            nouns.append("landing pad" if o.cls == "pad" else noun)
+        if o.cls == "pad" or n_px < MIN_SEG_PX:
+            continue
+        rows, cols = np.nonzero(r.seg == body)
+        near[body] = float(r.depth_m[rows, cols].min()) < MIN_OBJECT_DEPTH_M
+        pos_o = o.position()
+        captions[body] = crop_caption(
+            o.cls,
+            colour=object_colour(o.cls, r.rgb, rows, cols),
+            surface=surface_at(world, float(pos_o[0]), float(pos_o[1])),
+            speed_mps=float(np.hypot(*o.velocity()[:2])),
+            dynamic=o.dynamic,
+            size_m=o.size_m,
+        )
+        box = (int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1)
+        kept[o.cls] = kept.get(o.cls, 0) + 1
+        if near[body] or kept[o.cls] > PER_RENDER_CAP.get(o.cls, 99):
+            continue
+        _add(out, crop_square(r.rgb, _jitter_box(box, rng), crop_size), captions[body], o.cls, o.cls, "seg", group,
+             1.0)
+    return captions, near, nouns
+
+
+def _blob_crops(
+    out: RenderSet, world: Any, r: Any, captions: dict[int, str], near: dict[int, bool], crop_size: int, group: str
+) -> None:
+    """Blob crops of one render, labelled by the truth object at each blob's position."""
+    items = [o for o in world.objects if o.cls != "pad"]
+    obj_bodies = np.array([o.body_id for o in items], dtype=np.int32)
+    truth = [
+        TruthItem(o.obj_id, o.cls, tuple(o.position()), (o.size_m[0], o.size_m[1], o.size_m[2]),
+                  tuple(o.velocity()), o.dynamic)
+        for o in items
+    ]
+    blobs = find_blobs(r.depth_m, r.intrinsics, r.T_world_camera, **BLOB_KW)  # type: ignore[arg-type]
+    for b in blobs[:MAX_BLOBS]:
+        u0, v0, u1, v1 = b.bbox_px
+        box_seg = r.seg[v0:v1, u0:u1]
+        k = match_position(b.centroid_m, truth, b.size_m)
+        pos_cls = truth[k].cls if k is not None else ""
+        label, caption, inside = "", "", 0
+        if k is not None:
+            body = items[k].body_id
+            if near.get(body, False):
+                continue
+            inside = int((box_seg == body).sum())
+            if body in captions and inside >= max(30, 0.05 * box_seg.size):
+                label, caption = items[k].cls, captions[body]
+        else:
+            objects_px = int(np.isin(box_seg, obj_bodies).sum())
+            if objects_px <= 0.03 * box_seg.size:
+                surf = surface_at(world, float(b.centroid_m[0]), float(b.centroid_m[1]))
+                label, caption = "ground", crop_caption("ground", surface=surf)
+        if not label and not pos_cls:
+            continue
+        _add(out, crop_square(r.rgb, b.bbox_px, crop_size), caption, label, pos_cls or label, "blob", group,
+             inside / max(box_seg.size, 1))
+
+
 def _render_world(
     name: str, seed: int, n_renders: int, renderer: str, crop_size: int, frame_size: int, n_pedestrians: int | None
 ) -> RenderSet:
-    import pybullet as p
-    from llmland_sim.camera import RgbdCamera
-    from llmland_sim.world import build_world
-
     out = RenderSet()
     group = f"{name}:{seed}"
     rng = np.random.default_rng([seed, WORLDS.index(name), 7])
-    client = p.connect(p.DIRECT)
-    try:
-        world = build_world(client, name, seed, n_pedestrians=n_pedestrians, renderer=renderer)
-        cam = RgbdCamera(client, renderer=renderer)
-        by_body = {o.body_id: o for o in world.objects}
-        obj_bodies = np.array([o.body_id for o in world.objects if o.cls != "pad"], dtype=np.int32)
+    with world_scene(name, seed, renderer=renderer, n_pedestrians=n_pedestrians) as (world, cam):
         for _ in range(n_renders):
             for _ in range(int(rng.integers(2, 25))):
                 world.step_actors(0.1)
             pos, quat = sample_pose(world, rng)
             r = cam.render(pos, quat, with_seg=True)
-            ids, counts = np.unique(r.seg, return_counts=True)
-            seen = {int(i): int(c) for i, c in zip(ids, counts, strict=True) if int(i) in by_body}
-            items = [o for o in world.objects if o.cls != "pad"]
-            truth = [
-                TruthItem(o.obj_id, o.cls, tuple(o.position()), (o.size_m[0], o.size_m[1], o.size_m[2]),
-                          tuple(o.velocity()), o.dynamic)
-                for o in items
-            ]
-            captions: dict[int, str] = {}
-            near: dict[int, bool] = {}
-            boxes: dict[int, tuple[int, int, int, int]] = {}
-            nouns: list[str] = []
-            kept: dict[str, int] = {}
-            for body, n_px in sorted(seen.items(), key=lambda kv: -kv[1]):
-                o = by_body[body]
-                if n_px >= FRAME_MIN_PX:
-                    noun = vehicle_noun(o.size_m) if o.cls == "vehicle" else o.cls
-                    nouns.append("landing pad" if o.cls == "pad" else noun)
-                if o.cls == "pad" or n_px < MIN_SEG_PX:
-                    continue
-                rows, cols = np.nonzero(r.seg == body)
-                near[body] = float(r.depth_m[rows, cols].min()) < MIN_OBJECT_DEPTH_M
-                pos_o = o.position()
-                captions[body] = crop_caption(
-                    o.cls,
-                    colour=object_colour(o.cls, r.rgb, rows, cols),
-                    surface=surface_at(world, float(pos_o[0]), float(pos_o[1])),
-                    speed_mps=float(np.hypot(*o.velocity()[:2])),
-                    dynamic=o.dynamic,
-                    size_m=o.size_m,
-                )
-                boxes[body] = (int(cols.min()), int(rows.min()), int(cols.max()) + 1, int(rows.max()) + 1)
-                kept[o.cls] = kept.get(o.cls, 0) + 1
-                if near[body] or kept[o.cls] > PER_RENDER_CAP.get(o.cls, 99):
-                    continue
-                out.crops.append(crop_square(r.rgb, _jitter_box(boxes[body], rng), crop_size))
-                out.captions.append(captions[body])
-                out.classes.append(o.cls)
-                out.pos_classes.append(o.cls)
-                out.sources.append("seg")
-                out.groups.append(group)
-                out.inside.append(1.0)
-            blobs = find_blobs(r.depth_m, r.intrinsics, r.T_world_camera, **BLOB_KW)  # type: ignore[arg-type]
-            for b in blobs[:MAX_BLOBS]:
-                u0, v0, u1, v1 = b.bbox_px
-                box_seg = r.seg[v0:v1, u0:u1]
-                k = match_position(b.centroid_m, truth, b.size_m)
-                pos_cls = truth[k].cls if k is not None else ""
-                label, caption, inside = "", "", 0
-                if k is not None:
-                    body = items[k].body_id
-                    if near.get(body, False):
-                        continue
-                    inside = int((box_seg == body).sum())
-                    if body in captions and inside >= max(30, 0.05 * box_seg.size):
-                        label, caption = items[k].cls, captions[body]
-                else:
-                    objects_px = int(np.isin(box_seg, obj_bodies).sum())
-                    if objects_px <= 0.03 * box_seg.size:
-                        surf = surface_at(world, float(b.centroid_m[0]), float(b.centroid_m[1]))
-                        label, caption = "ground", crop_caption("ground", surface=surf)
-                if not label and not pos_cls:
-                    continue
-                out.crops.append(crop_square(r.rgb, b.bbox_px, crop_size))
-                out.captions.append(caption)
-                out.classes.append(label)
-                out.pos_classes.append(pos_cls or label)
-                out.sources.append("blob")
-                out.groups.append(group)
-                out.inside.append(inside / max(box_seg.size, 1))
+            captions, near, nouns = _seg_crops(out, world, r, rng, crop_size, group)
+            _blob_crops(out, world, r, captions, near, crop_size, group)
             out.frames.append(resize(r.rgb, frame_size))
             out.frame_captions.append(frame_caption(name, nouns))
             out.renders += 1
-    finally:
-        p.disconnect(client)
     return out
 
 
