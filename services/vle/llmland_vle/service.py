@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -55,7 +56,7 @@ class VleService:
         self.scene_key = key(d, Topic.SCENE)
         bus.subscribe_parsed(key(d, Topic.CAMERA), _raw, self._on_frame)  # type: ignore[type-var]
         for extra in bus_inputs(self.captioner):  # e.g. the oracle's sim/truth
-            bus.subscribe(key(d, extra.topic), extra.message, lambda _k, m, handle=extra.handle: handle(m))
+            bus.subscribe(key(d, extra.topic), extra.message, _drop_key(extra.handle))
         bus.queryable(VLE_CAPTION_QUERY, self._on_query)
         bus.announce(alive(d, "vle"))
         log.info("vle ready (drone %s, backend %s, model %s)", d, self.captioner.backend,
@@ -116,3 +117,8 @@ class VleService:
     def close(self) -> None:
         self.worker.close()
         self._queries.shutdown(wait=True, cancel_futures=True)
+
+
+def _drop_key(handle: Callable[[Any], None]) -> Callable[[str, Any], None]:
+    """A bus callback ``(key, msg)`` that passes only ``msg`` to ``handle``."""
+    return lambda _key, msg: handle(msg)
