@@ -324,7 +324,11 @@ class Planner:
             or t - self._last_replan_s >= self.settings.replan_period_s
             or self._path_blocked(self.active.path, regions)
         )
-        if need and self._job is None:
+        # at the full budget, failures are retried once per replan period, not back to back
+        # (each costs ~16× a search: in lockstep the sim waits for it)
+        backing_off = (self._failed_in_row > SEARCH_BUDGET_DOUBLINGS and not self._force_replan
+                       and t - self._last_replan_s < self.settings.replan_period_s)
+        if need and self._job is None and not backing_off:
             self._force_replan = False
             self._last_replan_s = t
             self._job = _Job(t0_s=t, goal_m=goal.copy())

@@ -51,9 +51,34 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
                          clock="lockstep"))
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     t = 0.0
-    for _ in range(8):
+    while t < 3.0:
         pl._maybe_replan(t, pos, vel, goal, [])
         t += settings.search_budget_s
     base = settings.search_max_expansions
     cap = base * 2 ** planner_module.SEARCH_BUDGET_DOUBLINGS
     assert budgets[:6] == [base, 2 * base, 4 * base, 8 * base, cap, cap]
+
+
+def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypatch):
+    """Back-to-back searches at ×16 budget made a lockstep episode take half an hour of wall time."""
+    import llmland_planner.planner as planner_module
+
+    starts: list[float] = []
+    clock = {"t": 0.0}
+
+    def failing_plan(pos, vel, goal, regions, cfg):
+        starts.append(clock["t"])
+        return None
+
+    monkeypatch.setattr(planner_module, "plan", failing_plan)
+    settings = PlannerSettings()
+    pl = Planner(settings)
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
+                         clock="lockstep"))
+    pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
+    while clock["t"] < 6.0:
+        pl._maybe_replan(clock["t"], pos, vel, goal, [])
+        clock["t"] += settings.search_budget_s
+    escalating = planner_module.SEARCH_BUDGET_DOUBLINGS + 1
+    gaps = np.diff(starts[escalating:])
+    assert len(gaps) >= 2 and np.all(gaps >= settings.replan_period_s - 1e-9)
