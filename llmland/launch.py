@@ -79,6 +79,7 @@ class Stack:
         self.extra_env = env or {}
         self.log_level = log_level
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
+        self._stop_lock = threading.Lock()
         self._files: list[Any] = []
 
     def env_for(self, name: str) -> dict[str, str]:
@@ -128,21 +129,25 @@ class Stack:
             time.sleep(0.1)
 
     def stop(self, grace_s: float = 5.0) -> None:
-        for proc in self.procs.values():
+        """SIGTERM every service's process group, SIGKILL after ``grace_s``. Safe to call from
+        several threads at once (an interrupted experiment stops stacks its jobs are closing)."""
+        with self._stop_lock:
+            procs, files = dict(self.procs), list(self._files)
+            self.procs.clear()
+            self._files.clear()
+        for proc in procs.values():
             if proc.poll() is None:
                 os.killpg(proc.pid, signal.SIGTERM)
         deadline = time.monotonic() + grace_s
-        for name, proc in self.procs.items():
+        for name, proc in procs.items():
             try:
                 proc.wait(max(0.1, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
                 log.warning("%s did not stop within %.0f s: killing", name, grace_s)
                 os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
-        self.procs.clear()
-        for f in self._files:
+        for f in files:
             f.close()
-        self._files.clear()
 
     def __enter__(self) -> Stack:
         return self
