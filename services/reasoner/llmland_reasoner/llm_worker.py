@@ -26,7 +26,10 @@ import time
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .llm import ScoreRequest
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +65,8 @@ def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int)
         try:
             if op == "score":
                 value: Any = backend.score(*args)
+            elif op == "score_many":
+                value = backend.score_many(args[0])
             elif op == "complete":
                 value = backend.complete(*args)
             elif op == "warm":
@@ -112,6 +117,17 @@ class WorkerLlmBackend:
         self._remember(prefix)
         return list(self._call("score", (prefix, suffix, list(continuations), first_token_only)))
 
+    def score_many(self, requests: Sequence[ScoreRequest]) -> list[list[float]]:
+        """Several ``score`` calls in one round trip; a worker lost during it fails them all
+        (:class:`LlmUnavailableError`: every caption of the batch gets the fallback)."""
+        if not requests:
+            return []
+        for r in requests:
+            self._remember(r[0])
+        batch = [(p, s, list(c), f) for p, s, c, f in requests]
+        value = self._call("score_many", (batch,), timeout_s=self.call_timeout_s * len(batch))
+        return [list(v) for v in value]
+
     def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
         self._remember(prefix)
         return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature)))
@@ -136,7 +152,8 @@ class WorkerLlmBackend:
         if prefix not in self._prefixes:
             self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
 
-    def _call(self, op: str, args: tuple[Any, ...]) -> Any:
+    def _call(self, op: str, args: tuple[Any, ...], timeout_s: float | None = None) -> Any:
+        wait_s = self.call_timeout_s if timeout_s is None else timeout_s
         self._raise_unless_ready()  # fail fast while the worker restarts: never queue behind it
         with self._call_lock:
             self._raise_unless_ready()
@@ -144,8 +161,8 @@ class WorkerLlmBackend:
             assert conn is not None
             try:
                 conn.send((op, args))
-                if not conn.poll(self.call_timeout_s):
-                    self._worker_lost(f"LLM worker gave no answer within {self.call_timeout_s:.1f} s (killed)")
+                if not conn.poll(wait_s):
+                    self._worker_lost(f"LLM worker gave no answer within {wait_s:.1f} s (killed)")
                     raise LlmUnavailableError(self.last_error)
                 kind, value = conn.recv()
             except (EOFError, OSError, BrokenPipeError):
