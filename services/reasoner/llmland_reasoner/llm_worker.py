@@ -104,6 +104,7 @@ class WorkerLlmBackend:
         self.crashes = 0
         self.last_error = ""
         self._prefixes: list[str] = []
+        self._evaluated: set[str] = set()  # prefixes the current worker has evaluated
         self._wake = threading.Event()
         self._start_worker()
         if self._state != "ready":
@@ -114,23 +115,22 @@ class WorkerLlmBackend:
     # ------------------------------------------------------------------ interface
     def score(self, prefix: str, suffix: str, continuations: Sequence[str],
               first_token_only: bool = False) -> list[float]:
-        self._remember(prefix)
-        return list(self._call("score", (prefix, suffix, list(continuations), first_token_only)))
+        return list(self._call("score", (prefix, suffix, list(continuations), first_token_only),
+                               timeout_s=self._timeout_for([prefix])))
 
     def score_many(self, requests: Sequence[ScoreRequest]) -> list[list[float]]:
         """Several ``score`` calls in one round trip; a worker lost during it fails them all
         (:class:`LlmUnavailableError`: every caption of the batch gets the fallback)."""
         if not requests:
             return []
-        for r in requests:
-            self._remember(r[0])
         batch = [(p, s, list(c), f) for p, s, c, f in requests]
-        value = self._call("score_many", (batch,), timeout_s=self.call_timeout_s * len(batch))
+        wait_s = self._timeout_for([r[0] for r in batch]) + self.call_timeout_s * (len(batch) - 1)
+        value = self._call("score_many", (batch,), timeout_s=wait_s)
         return [list(v) for v in value]
 
     def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
-        self._remember(prefix)
-        return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature)))
+        return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature),
+                              timeout_s=self._timeout_for([prefix])))
 
     def health(self) -> dict[str, Any]:
         with self._state_lock:
@@ -148,9 +148,17 @@ class WorkerLlmBackend:
             self._stop_worker(graceful=True)
 
     # ------------------------------------------------------------------ calls
-    def _remember(self, prefix: str) -> None:
-        if prefix not in self._prefixes:
-            self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
+    def _timeout_for(self, prefixes: Sequence[str]) -> float:
+        """How long a call may take: ``call_timeout_s``, or :data:`START_TIMEOUT_S` when the
+        worker has not evaluated one of its prompt prefixes yet (hundreds of tokens: on a
+        loaded CPU that first evaluation can take longer than any call, and killing the worker
+        for it would only make the next worker evaluate it again)."""
+        new = False
+        for prefix in prefixes:
+            if prefix not in self._prefixes:
+                self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
+            new = new or prefix not in self._evaluated
+        return max(self.call_timeout_s, START_TIMEOUT_S) if new else self.call_timeout_s
 
     def _call(self, op: str, args: tuple[Any, ...], timeout_s: float | None = None) -> Any:
         wait_s = self.call_timeout_s if timeout_s is None else timeout_s
@@ -170,6 +178,10 @@ class WorkerLlmBackend:
                 raise LlmUnavailableError(self.last_error) from None
             if kind == "error":
                 raise RuntimeError(f"LLM error: {value}")
+            if op in ("score", "complete"):
+                self._evaluated.add(args[0])
+            elif op == "score_many":
+                self._evaluated.update(r[0] for r in args[0])
             return value
 
     def _raise_unless_ready(self) -> None:
@@ -215,11 +227,14 @@ class WorkerLlmBackend:
                 self.last_error = str(value)
                 self._state = "failed"
             return
+        evaluated: set[str] = set()
         for prefix in list(self._prefixes):  # the new worker evaluates the known prefixes once
             parent.send(("warm", (prefix,)))
             if not parent.poll(START_TIMEOUT_S):
                 break
             parent.recv()
+            evaluated.add(prefix)
+        self._evaluated = evaluated
         with self._state_lock:
             self._proc, self._conn = proc, parent
             self._state = "ready"
