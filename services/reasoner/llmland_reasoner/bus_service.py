@@ -17,6 +17,7 @@ import logging
 import threading
 import time
 from collections import Counter
+from collections.abc import Callable
 
 import zenoh
 from llmland_schemas import (
@@ -45,10 +46,10 @@ log = logging.getLogger(__name__)
 
 #: Most drones whose scenes one batch serves.
 MAX_BATCH_DRONES = 10
-#: Most captions a batch computes (not in the cache): the LLM's work does not get cheaper per
-#: caption in a batch on a CPU, so small batches keep the wait short; shared captions are
-#: computed once (a scene needing more is served alone).
-COLD_CAPTIONS_PER_BATCH = 4
+#: Most distinct captions a batch computes (not in the cache): the LLM's work does not get
+#: cheaper per caption in a batch on a CPU, so small batches keep the wait short; a caption
+#: several drones' scenes share is computed once (a scene needing more is served alone).
+COLD_CAPTIONS_PER_BATCH = 6
 #: How long the worker waits for a scene before checking for shutdown (s).
 POLL_S = 0.2
 #: How often the per-drone counters are logged (s).
@@ -70,7 +71,8 @@ class ReasonerBusService:
         self.bus = bus
         self.queue: FairSceneQueue[SceneDescription] = FairSceneQueue()
         self.stats: Counter[str] = Counter()
-        self.published: Counter[str] = Counter()
+        self.offered: Counter[str] = Counter()  # per drone: scenes received
+        self.published: Counter[str] = Counter()  # per drone: specs published
         self._lock = threading.Lock()
         self._newest_published: dict[str, float] = {}
         self._stop = threading.Event()
@@ -83,6 +85,7 @@ class ReasonerBusService:
         drone, now = drone_of(k), time.perf_counter()
         with self._lock:
             self.stats["scenes_offered"] += 1
+            self.offered[drone] += 1
         specs = self._cached(scene)
         if specs is None:
             if self.queue.put(drone, scene, now):
@@ -104,23 +107,31 @@ class ReasonerBusService:
             return None
         return list(hits) if hits is not None else None
 
-    def _cold(self, scene: SceneDescription) -> int:
-        """How many of the scene's captions a batch would have to compute."""
+    def _cold_counter(self) -> Callable[[SceneDescription], int]:
+        """For one batch: how many captions each next scene adds to what the batch computes
+        (not cached, not already in the batch)."""
         lookup = getattr(self.engine, "cached_specs", None)
-        if not callable(lookup):
-            return len(_captions(scene))
-        return sum(lookup([c]) is None for c in dict.fromkeys(_captions(scene)))
+        seen: set[str] = set()
+
+        def cold(scene: SceneDescription) -> int:
+            new = [c for c in dict.fromkeys(_captions(scene)) if c not in seen]
+            seen.update(new)
+            return len(new) if not callable(lookup) else sum(lookup([c]) is None for c in new)
+
+        return cold
 
     def _run(self) -> None:
         last_log = time.monotonic()
         while not self._stop.is_set():
-            batch = self.queue.take(MAX_BATCH_DRONES, POLL_S, cost=self._cold, budget=COLD_CAPTIONS_PER_BATCH)
+            batch = self.queue.take(MAX_BATCH_DRONES, POLL_S, cost=self._cold_counter(),
+                                    budget=COLD_CAPTIONS_PER_BATCH)
             if batch:
                 self._serve(batch)
             if time.monotonic() - last_log >= STATS_LOG_S:
                 last_log = time.monotonic()
-                log.info("reasoner served %s (offered %s, superseded %s)", dict(self.published),
-                         dict(self.queue.offered), dict(self.queue.superseded))
+                with self._lock:
+                    served, offered = dict(self.published), dict(self.offered)
+                log.info("specs published per drone %s (scenes offered %s; %s)", served, offered, dict(self.stats))
 
     def _serve(self, batch: list[Pending[SceneDescription]]) -> None:
         captions = [c for p in batch for c in _captions(p.item)]
