@@ -58,12 +58,13 @@ def _scene_captions(stream: str, pool: list[str], drone: int, seq: int, drones: 
     (about ``drones`` new captions a frame). ``flight``: each drone sees its own few obstacles
     (:data:`WORLD_CAPTIONS` captions) from frame to frame, the view shifting every
     :data:`HOLD_FRAMES` frames, and one new caption entering every :data:`NOVEL_EVERY_FRAMES`
-    frames (2 new captions/s over 10 drones at 2 Hz)."""
+    frames (2 new captions/s over 10 drones at 2 Hz), the drones out of step by a frame each."""
     n = 1 + CROPS_PER_SCENE
     if stream == "novel":
         return [pool[(seq * drones + drone + i) % len(pool)] for i in range(n)]
-    base = drone * 37 + seq // NOVEL_EVERY_FRAMES  # the drone's world slides by one caption
-    view = seq // HOLD_FRAMES
+    frame = seq + drone  # drones are not in step: each changes its view at its own frames
+    base = drone * 37 + frame // NOVEL_EVERY_FRAMES  # the drone's world slides by one caption
+    view = frame // HOLD_FRAMES
     return [pool[(base + (view + i) % WORLD_CAPTIONS) % len(pool)] for i in range(n)]
 
 

@@ -123,6 +123,8 @@ class ReasonerBusService:
     def _run(self) -> None:
         last_log = time.monotonic()
         while not self._stop.is_set():
+            for p in self.queue.take_ready(lambda scene: self._cached(scene) is not None):
+                self._serve_cached(p)  # computed while it waited: never behind the next batch
             batch = self.queue.take(MAX_BATCH_DRONES, POLL_S, cost=self._cold_counter(),
                                     budget=COLD_CAPTIONS_PER_BATCH)
             if batch:
@@ -133,7 +135,18 @@ class ReasonerBusService:
                     served, offered = dict(self.published), dict(self.offered)
                 log.info("specs published per drone %s (scenes offered %s; %s)", served, offered, dict(self.stats))
 
+    def _serve_cached(self, p: Pending[SceneDescription]) -> bool:
+        specs = self._cached(p.item)
+        if specs is None:
+            return False
+        self._count("specs_from_cache")
+        self._publish(p.drone, p.item, specs, p.received_s)
+        return True
+
     def _serve(self, batch: list[Pending[SceneDescription]]) -> None:
+        batch = [p for p in batch if not self._serve_cached(p)]  # cached ones first, not after the batch
+        if not batch:
+            return
         captions = [c for p in batch for c in _captions(p.item)]
         try:
             many = getattr(self.engine, "extract_many", None)

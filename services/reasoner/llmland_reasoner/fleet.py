@@ -88,6 +88,16 @@ class FairSceneQueue(Generic[T]):
                 out.append(pending)
             return out
 
+    def take_ready(self, ready: Callable[[T], bool]) -> list[Pending[T]]:
+        """Every pending scene for which ``ready`` holds (no model work left: its captions were
+        computed while it waited), front of the line first; does not wait."""
+        with self._cond:
+            out = [p for p in self._slots.values() if ready(p.item)]
+            for p in out:
+                del self._slots[p.drone]
+                self.taken[p.drone] += 1
+            return out
+
     def pending(self) -> list[str]:
         """The drones waiting, front of the line first."""
         with self._cond:

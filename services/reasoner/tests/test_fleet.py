@@ -64,3 +64,11 @@ def test_drop_and_close_wake_a_waiting_taker() -> None:
     q.close()
     t.join(timeout=2.0)
     assert not t.is_alive() and out == [[]]
+
+
+def test_scenes_ready_while_waiting_are_taken_without_waiting() -> None:
+    q: FairSceneQueue[int] = FairSceneQueue()
+    for d, item in (("a", 1), ("b", 2), ("c", 3), ("d", 4)):
+        q.put(d, item)
+    assert [p.drone for p in q.take_ready(lambda x: x % 2 == 0)] == ["b", "d"]
+    assert q.pending() == ["a", "c"] and q.take_ready(lambda x: False) == []
