@@ -231,7 +231,15 @@ class WorkerLlmBackend:
         for prefix in list(self._prefixes):  # the new worker evaluates the known prefixes once
             parent.send(("warm", (prefix,)))
             if not parent.poll(START_TIMEOUT_S):
-                break
+                # its late answer would be read as the next call's: the pipe would stay one
+                # answer behind. A failed start instead (killed; the supervisor retries).
+                proc.kill()
+                proc.join(timeout=2.0)
+                parent.close()
+                with self._state_lock:
+                    self.last_error = f"no answer to the prefix warm-up within {START_TIMEOUT_S:.0f} s"
+                    self._state = "failed"
+                return
             parent.recv()
             evaluated.add(prefix)
         self._evaluated = evaluated
