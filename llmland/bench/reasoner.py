@@ -1,6 +1,7 @@
 """Reasoner figures: per-mode caption→spec latency (cold and warm cache) and peak RSS, from the
-caption test set (one process per mode); and spec throughput with 10 drones publishing
-scenes at 2 Hz to one reasoner process over Zenoh.
+caption test set (one process per mode); and, with 10 drones publishing scenes (a frame
+caption and two crop captions each) at 2 Hz to one reasoner process over Zenoh, specs/s and
+scene→spec latency per drone and overall, for two caption streams (:func:`_scene_captions`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 from llmland_reasoner.evaluation import load_cases
 from llmland_schemas import Caption, SafetySpecMessage, SceneDescription, SceneObject, Topic, any_drone, key
+from llmland_schemas.bus import Bus
 
 from ..launch import Stack, free_port, hub_bus
 from . import percentiles
@@ -34,58 +36,130 @@ def _per_mode(modes: list[str]) -> dict[str, Any]:
     return out
 
 
-def _fleet(drones: int = 10, rate_hz: float = 2.0, seconds: float = 15.0) -> dict[str, Any]:
-    """Scenes from ``drones`` drones at ``rate_hz`` (2 crops each, captions from the test set)."""
-    captions = [c.caption for c in load_cases("eval")]
-    port = free_port()
-    received: list[tuple[float, str]] = []
-    lat_ms: list[float] = []
+#: Drones and scene rate of the fleet benchmark (the issue: ten drones at 2 Hz).
+FLEET_DRONES = 10
+FLEET_RATE_HZ = 2.0
+#: Crops per scene (each with its caption), besides the frame caption.
+CROPS_PER_SCENE = 2
+#: After the last scene, how long specs are still awaited (s).
+DRAIN_S = 3.0
+#: ``flight`` stream: captions a drone's view holds at a time, how many frames each view
+#: is held, and how often a new caption enters a drone's view (frames).
+WORLD_CAPTIONS = 4
+HOLD_FRAMES = 4
+NOVEL_EVERY_FRAMES = 10
+
+
+def _scene_captions(stream: str, pool: list[str], drone: int, seq: int, drones: int) -> list[str]:
+    """The frame caption and the crops' captions of one scene.
+
+    ``novel`` (the issue's stress stream): consecutive captions of the pool, a different
+    window for every drone and frame, so the first lap of the pool is all new captions
+    (about ``drones`` new captions a frame). ``flight``: each drone sees its own few obstacles
+    (:data:`WORLD_CAPTIONS` captions) from frame to frame, the view shifting every
+    :data:`HOLD_FRAMES` frames, and one new caption entering every :data:`NOVEL_EVERY_FRAMES`
+    frames (2 new captions/s over 10 drones at 2 Hz), the drones out of step by a frame each."""
+    n = 1 + CROPS_PER_SCENE
+    if stream == "novel":
+        return [pool[(seq * drones + drone + i) % len(pool)] for i in range(n)]
+    frame = seq + drone  # drones are not in step: each changes its view at its own frames
+    base = drone * 37 + frame // NOVEL_EVERY_FRAMES  # the drone's world slides by one caption
+    view = frame // HOLD_FRAMES
+    return [pool[(base + (view + i) % WORLD_CAPTIONS) % len(pool)] for i in range(n)]
+
+
+def _fleet(bus: Bus, stream: str, pool: list[str], drones: int = FLEET_DRONES, rate_hz: float = FLEET_RATE_HZ,
+           seconds: float = 15.0, warmup_s: float = 0.0) -> dict[str, Any]:
+    """Scenes from ``drones`` drones at ``rate_hz`` to the running reasoner for ``warmup_s``
+    (not measured) and then ``seconds`` (measured): specs/s, scene→spec latency per drone and
+    overall, scenes offered / served / superseded (offered, never answered: a newer scene of
+    the same drone was answered instead) and fallback specs among those served."""
     sent: dict[tuple[str, int], float] = {}
+    got: dict[str, list[tuple[int, float, float]]] = {}  # drone → (seq, received at, latency ms)
+    fallbacks = [0]
     lock = threading.Lock()
+    measure_from = [float("inf")]
+    epoch = f"{stream}-{time.time_ns()}"
+
+    def on_spec(k: str, msg: SafetySpecMessage) -> None:
+        now = time.perf_counter()
+        if msg.episode_id != epoch:
+            return
+        with lock:
+            t0 = sent.get((msg.drone_id, msg.seq))
+            if t0 is None or t0 < measure_from[0]:
+                return
+            got.setdefault(msg.drone_id, []).append((msg.seq, now, (now - t0) * 1e3))
+            fallbacks[0] += sum(s.source == "fallback" for s in [msg.scene, *[o.spec for o in msg.objects]])
+
+    bus.subscribe(any_drone(Topic.SPEC), SafetySpecMessage, on_spec)
+    time.sleep(0.5)
+    t_start = time.perf_counter()
+    measure_from[0] = t_start + warmup_s
+    offered: dict[str, int] = {}
+    seq = 0
+    while time.perf_counter() - t_start < warmup_s + seconds:
+        for d in range(drones):
+            drone = f"d{d}"
+            c = _scene_captions(stream, pool, d, seq, drones)
+            scene = SceneDescription(
+                drone_id=drone, stamp=seq / rate_hz, seq=seq, episode_id=epoch,
+                caption=Caption(text=c[0], backend="bench"),
+                objects=[SceneObject(obj_id=f"b{i}", caption=Caption(text=c[i], backend="bench"),
+                                     centroid_m=(float(i), 0.0, 0.5), size_m=(0.5, 0.5, 1.0))
+                         for i in range(1, len(c))],
+            )
+            now = time.perf_counter()
+            with lock:
+                sent[(drone, seq)] = now
+            if now >= measure_from[0]:
+                offered[drone] = offered.get(drone, 0) + 1
+            bus.publish(key(drone, Topic.SCENE), scene)
+        seq += 1
+        time.sleep(max(0.0, t_start + seq / rate_hz - time.perf_counter()))
+    t_end = time.perf_counter()
+    time.sleep(DRAIN_S)
+    p = f"reasoner_fleet_{stream}"
+    with lock:
+        lat = [ms for v in got.values() for _, _, ms in v]
+        in_window = sum(1 for v in got.values() for _, t, _ in v if t <= t_end)
+        per_drone = {}
+        for drone in sorted(offered, key=lambda x: int(x[1:])):
+            mine = [ms for _, _, ms in got.get(drone, [])]
+            per_drone[drone] = {"offered": offered[drone], "served": len(mine),
+                                "superseded": offered[drone] - len(mine),
+                                **(percentiles(mine, "scene_to_spec_ms") if mine else {})}
+        out: dict[str, Any] = {
+            f"{p}_drones": drones, f"{p}_warmup_s": warmup_s, f"{p}_seconds": seconds,
+            f"{p}_scenes_offered": sum(offered.values()),
+            f"{p}_scenes_offered_per_s": round(sum(offered.values()) / seconds, 2),
+            f"{p}_scenes_served": len(lat), f"{p}_scenes_superseded": sum(offered.values()) - len(lat),
+            f"{p}_specs_per_s": round(in_window / seconds, 2),
+            f"{p}_drones_served": sum(1 for v in per_drone.values() if v["served"]),
+            f"{p}_fallback_specs": fallbacks[0],
+            f"{p}_per_drone": per_drone,
+        }
+    if lat:
+        out.update(percentiles(lat, f"{p}_scene_to_spec_ms"))
+    return out
+
+
+def run_fleet(seconds: float = 15.0, flight_warmup_s: float = 20.0) -> dict[str, Any]:
+    """One reasoner process; the ``novel`` stream from a cold cache (eval captions), then the
+    ``flight`` stream after a warm-up (public captions, none of which the first stream used)."""
+    port = free_port()
+    figures: dict[str, Any] = {}
     with hub_bus(port) as bus, Stack(port, "d0") as stack:
         stack.start(["reasoner"])
         stack.wait_alive(bus, timeout_s=180)
-
-        def on_spec(k: str, msg: SafetySpecMessage) -> None:
-            now = time.perf_counter()
-            with lock:
-                received.append((now, k))
-                t0 = sent.get((msg.drone_id, msg.seq))
-                if t0 is not None:
-                    lat_ms.append((now - t0) * 1e3)
-
-        bus.subscribe(any_drone(Topic.SPEC), SafetySpecMessage, on_spec)
         time.sleep(1.0)
-        t_start = time.perf_counter()
-        n, seq = 0, 0
-        while (elapsed := time.perf_counter() - t_start) < seconds:
-            for d in range(drones):
-                c = [captions[(seq * drones + d + i) % len(captions)] for i in range(3)]
-                drone = f"d{d}"
-                scene = SceneDescription(
-                    drone_id=drone, stamp=elapsed, seq=seq, caption=Caption(text=c[0], backend="bench"),
-                    objects=[SceneObject(obj_id=f"b{i}", caption=Caption(text=c[i], backend="bench"),
-                                         centroid_m=(float(i), 0.0, 0.5), size_m=(0.5, 0.5, 1.0)) for i in (1, 2)],
-                )
-                with lock:
-                    sent[(drone, seq)] = time.perf_counter()
-                bus.publish(key(drone, Topic.SCENE), scene)
-                n += 1
-            seq += 1
-            time.sleep(max(0.0, t_start + seq / rate_hz - time.perf_counter()))
-        time.sleep(3.0)
-    with lock:
-        window = [t for t, _ in received if t - t_start <= seconds]
-        per_drone = {k for _, k in received}
-    out = {"reasoner_fleet_drones": drones, "reasoner_fleet_scenes_offered_per_s": round(n / seconds, 2),
-           "reasoner_fleet_specs_per_s": round(len(window) / seconds, 2),
-           "reasoner_fleet_drones_served": len(per_drone)}
-    if lat_ms:
-        out.update(percentiles(lat_ms, "reasoner_fleet_scene_to_spec_ms"))
-    return out
+        figures.update(_fleet(bus, "novel", [c.caption for c in load_cases("eval")], seconds=seconds))
+        figures.update(_fleet(bus, "flight", [c.caption for c in load_cases("public")], seconds=seconds,
+                              warmup_s=flight_warmup_s))
+    return figures
 
 
 def run_reasoner(quick: bool = False) -> dict[str, Any]:
     figures = _per_mode(["rag"] if quick else ["rag", "llm", "retrieval"])
-    figures.update(_fleet(seconds=5.0 if quick else 15.0))
+    figures.update(run_fleet(seconds=5.0 if quick else 15.0, flight_warmup_s=5.0 if quick else 20.0))
     return figures

@@ -1,9 +1,11 @@
 """The reasoner on the bus: scenes in from every drone, per-object specs out.
 
-Subscribes ``llmland/*/vle/scene`` (one reasoner serves many drones). Each drone keeps only
-its newest pending scene (older ones are dropped and counted); a worker serves the drones
-round-robin so a busy drone cannot starve the others. Publishes ``llmland/<d>/reasoner/spec``
-stamped with the frame's stamp and the measured latency (captioning + reasoning), so the
+Subscribes ``llmland/*/vle/scene`` (one reasoner serves many drones). A scene whose captions
+are all cached is answered on arrival; otherwise each drone keeps only its newest pending scene
+(older ones are dropped and counted) and a worker serves the drones round robin, several
+drones' scenes in one batch, so a busy drone cannot starve the others (``fleet.py``).
+Publishes ``llmland/<d>/reasoner/spec`` stamped with the frame's stamp and the measured
+latency (captioning + the wait and reasoning since the scene arrived), so the
 planner applies it when it would really have arrived. Queryable ``llmland/reasoner/spec``:
 a caption (UTF-8 text or ``{"caption": ...}``) → SafetySpec JSON.
 """
@@ -14,7 +16,8 @@ import json
 import logging
 import threading
 import time
-from collections import Counter, OrderedDict
+from collections import Counter
+from collections.abc import Callable
 
 import zenoh
 from llmland_schemas import (
@@ -23,6 +26,7 @@ from llmland_schemas import (
     Caption,
     MessageError,
     ObjectSpec,
+    SafetySpec,
     SafetySpecMessage,
     SceneDescription,
     Topic,
@@ -35,19 +39,42 @@ from llmland_schemas import (
 from llmland_schemas.bus import Bus
 
 from .engine import ReasonerEngine
+from .fleet import FairSceneQueue, Pending
 
 log = logging.getLogger(__name__)
 
 
+#: Most drones whose scenes one batch serves.
+MAX_BATCH_DRONES = 10
+#: Most distinct captions a batch computes (not in the cache): the LLM's work does not get
+#: cheaper per caption in a batch on a CPU, so small batches keep the wait short; a caption
+#: several drones' scenes share is computed once (a scene needing more is served alone).
+COLD_CAPTIONS_PER_BATCH = 6
+#: How long the worker waits for a scene before checking for shutdown (s).
+POLL_S = 0.2
+#: How often the per-drone counters are logged (s).
+STATS_LOG_S = 10.0
+
+
 class ReasonerBusService:
-    """Fair, newest-scene-wins reasoning for any number of drones."""
+    """Fair, newest-scene-wins reasoning for any number of drones.
+
+    A scene whose captions are all in the spec cache is answered on arrival (no model work);
+    the others wait in a :class:`~.fleet.FairSceneQueue` (one slot per drone, newest wins,
+    round robin) and are served in batches across drones (``engine.extract_many``: each
+    distinct caption once, the model work batched). A spec is never published for a scene
+    older than one already answered for that drone.
+    """
 
     def __init__(self, engine: ReasonerEngine, bus: Bus) -> None:
         self.engine = engine
         self.bus = bus
-        self._cond = threading.Condition()
-        self._pending: OrderedDict[str, SceneDescription] = OrderedDict()
+        self.queue: FairSceneQueue[SceneDescription] = FairSceneQueue()
         self.stats: Counter[str] = Counter()
+        self.offered: Counter[str] = Counter()  # per drone: scenes received
+        self.published: Counter[str] = Counter()  # per drone: specs published
+        self._lock = threading.Lock()
+        self._newest_published: dict[str, float] = {}
         self._stop = threading.Event()
         bus.subscribe(any_drone(Topic.SCENE), SceneDescription, self._on_scene)
         bus.queryable(REASONER_SPEC_QUERY, self._on_query)
@@ -55,44 +82,126 @@ class ReasonerBusService:
         self._worker.start()
 
     def _on_scene(self, k: str, scene: SceneDescription) -> None:
-        drone = drone_of(k)
-        with self._cond:
-            if drone in self._pending:
-                self.stats["scenes_replaced"] += 1
-            self._pending[drone] = scene
-            self._cond.notify()
+        drone, now = drone_of(k), time.perf_counter()
+        with self._lock:
+            self.stats["scenes_offered"] += 1
+            self.offered[drone] += 1
+        specs = self._cached(scene)
+        if specs is None:
+            if self.queue.put(drone, scene, now):
+                self._count("scenes_superseded")
+            return
+        if self.queue.drop(drone):  # this newer scene answers for the pending older one
+            self._count("scenes_superseded")
+        self._count("specs_from_cache")
+        self._publish(drone, scene, specs, now)
 
-    def _next(self) -> tuple[str, SceneDescription] | None:
-        with self._cond:
-            while not self._pending and not self._stop.is_set():
-                self._cond.wait(0.2)
-            if self._stop.is_set():
-                return None
-            return self._pending.popitem(last=False)  # oldest-waiting drone first: round robin
+    def _cached(self, scene: SceneDescription) -> list[SafetySpec] | None:
+        lookup = getattr(self.engine, "cached_specs", None)
+        if not callable(lookup):
+            return None
+        try:
+            hits = lookup(_captions(scene))
+        except Exception:  # a cache lookup must never lose a scene: the worker serves it
+            log.exception("spec cache lookup failed")
+            return None
+        return list(hits) if hits is not None else None
+
+    def _cold_counter(self) -> Callable[[SceneDescription], int]:
+        """For one batch: how many captions each next scene adds to what the batch computes
+        (not cached, not already in the batch)."""
+        lookup = getattr(self.engine, "cached_specs", None)
+        seen: set[str] = set()
+
+        def cold(scene: SceneDescription) -> int:
+            new = [c for c in dict.fromkeys(_captions(scene)) if c not in seen]
+            seen.update(new)
+            return len(new) if not callable(lookup) else sum(lookup([c]) is None for c in new)
+
+        return cold
 
     def _run(self) -> None:
-        while (item := self._next()) is not None:
-            drone, scene = item
-            try:
-                self.bus.publish(key(drone, Topic.SPEC), self.reason(drone, scene))
-                self.stats["specs_published"] += 1
-            except Exception:  # keep serving the other drones
-                log.exception("reasoning failed for drone %s", drone)
+        last_log = time.monotonic()
+        while not self._stop.is_set():
+            for p in self.queue.take_ready(lambda scene: self._cached(scene) is not None):
+                self._serve_cached(p)  # computed while it waited: never behind the next batch
+            batch = self.queue.take(MAX_BATCH_DRONES, POLL_S, cost=self._cold_counter(),
+                                    budget=COLD_CAPTIONS_PER_BATCH)
+            if batch:
+                self._serve(batch)
+            if time.monotonic() - last_log >= STATS_LOG_S:
+                last_log = time.monotonic()
+                with self._lock:
+                    served, offered = dict(self.published), dict(self.offered)
+                log.info("specs published per drone %s (scenes offered %s; %s)", served, offered, dict(self.stats))
 
-    def reason(self, drone: str, scene: SceneDescription) -> SafetySpecMessage:
-        t0 = time.perf_counter()
-        scene_spec = self.engine.extract(scene.caption.text)
-        objects = [
-            ObjectSpec(obj_id=o.obj_id, centroid_m=o.centroid_m, size_m=o.size_m,
-                       spec=self.engine.extract(o.caption.text))
-            for o in scene.objects
-        ]
-        reason_ms = (time.perf_counter() - t0) * 1e3
+    def _serve_cached(self, p: Pending[SceneDescription]) -> bool:
+        specs = self._cached(p.item)
+        if specs is None:
+            return False
+        self._count("specs_from_cache")
+        self._publish(p.drone, p.item, specs, p.received_s)
+        return True
+
+    def _serve(self, batch: list[Pending[SceneDescription]]) -> None:
+        batch = [p for p in batch if not self._serve_cached(p)]  # cached ones first, not after the batch
+        if not batch:
+            return
+        captions = [c for p in batch for c in _captions(p.item)]
+        try:
+            many = getattr(self.engine, "extract_many", None)
+            specs = list(many(captions)) if callable(many) else [self.engine.extract(c) for c in captions]
+            if len(specs) != len(captions):
+                raise RuntimeError(f"{len(specs)} specs for {len(captions)} captions")
+        except Exception as exc:  # the engine never should; if it does, every drone gets the fallback
+            log.exception("batch of %d scenes failed", len(batch))
+            specs = [SafetySpec.conservative(c, reason=f"{type(exc).__name__}: {exc}") for c in captions]
+        self._count("batches")
+        at = 0
+        for p in batch:
+            n = len(_captions(p.item))
+            self._publish(p.drone, p.item, specs[at : at + n], p.received_s)
+            at += n
+
+    def _publish(self, drone: str, scene: SceneDescription, specs: list[SafetySpec], received_s: float) -> None:
+        with self._lock:
+            if self._newest_published.get(drone, -1.0) > received_s:
+                self.stats["scenes_superseded"] += 1  # a newer scene of this drone was answered first
+                return
+            self._newest_published[drone] = received_s
+        try:
+            self.bus.publish(key(drone, Topic.SPEC), self.message(drone, scene, specs, received_s))
+        except Exception:  # keep serving the other drones
+            log.exception("publishing the spec failed for drone %s", drone)
+            return
+        with self._lock:
+            self.stats["specs_published"] += 1
+            self.published[drone] += 1
+
+    def message(self, drone: str, scene: SceneDescription, specs: list[SafetySpec],
+                received_s: float) -> SafetySpecMessage:
+        """The spec message of a scene: the frame caption's spec, then one per object; latency
+        = captioning + the wait and reasoning since the scene arrived."""
+        reason_ms = (time.perf_counter() - received_s) * 1e3
+        objects = [ObjectSpec(obj_id=o.obj_id, centroid_m=o.centroid_m, size_m=o.size_m, spec=spec)
+                   for o, spec in zip(scene.objects, specs[1:], strict=True)]
         return SafetySpecMessage(
             drone_id=drone, stamp=scene.stamp, seq=scene.seq, frame_seq=scene.frame_seq,
-            scene=scene_spec, objects=objects, latency_ms=scene.latency_ms + reason_ms,
+            scene=specs[0], objects=objects, latency_ms=scene.latency_ms + reason_ms,
             episode_id=scene.episode_id,
         )
+
+    def reason(self, drone: str, scene: SceneDescription) -> SafetySpecMessage:
+        """One scene, now, outside the queue."""
+        t0 = time.perf_counter()
+        many = getattr(self.engine, "extract_many", None)
+        captions = _captions(scene)
+        specs = list(many(captions)) if callable(many) else [self.engine.extract(c) for c in captions]
+        return self.message(drone, scene, specs, t0)
+
+    def _count(self, name: str) -> None:
+        with self._lock:
+            self.stats[name] += 1
 
     def _on_query(self, query: zenoh.Query) -> None:
         raw = query.payload.to_bytes() if query.payload is not None else b""
@@ -109,7 +218,13 @@ class ReasonerBusService:
 
     def close(self) -> None:
         self._stop.set()
+        self.queue.close()
         self._worker.join(timeout=5)
+
+
+def _captions(scene: SceneDescription) -> list[str]:
+    """The frame caption, then each object's."""
+    return [scene.caption.text, *[o.caption.text for o in scene.objects]]
 
 
 def caption_via_vle(bus: Bus, timeout_s: float = 10.0):  # type: ignore[no-untyped-def]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,15 @@ class ReasonerEngine:
 
     def extract(self, caption: str, mode: Mode | None = None) -> SafetySpec:
         return self.extractor(mode).extract(caption)
+
+    def extract_many(self, captions: Sequence[str], mode: Mode | None = None) -> list[SafetySpec]:
+        """Several captions in one batch (the fleet's scenes); each spec as :meth:`extract` gives."""
+        return [x.spec for x in self.extractor(mode).extract_many(captions)]
+
+    def cached_specs(self, captions: Sequence[str], mode: Mode | None = None) -> list[SafetySpec] | None:
+        """Every caption's spec if all are cached (answered without model work), else None."""
+        hits = self.extractor(mode).cached(captions)
+        return None if hits is None else [x.spec for x in hits]
 
     def add_entry(self, entry: KbEntry) -> KbEntry:
         """Validated KB write, persisted to the KB file when one is configured; caches cleared."""

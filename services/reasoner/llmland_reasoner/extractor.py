@@ -21,6 +21,7 @@ import logging
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass, replace
@@ -29,13 +30,17 @@ from typing import Any
 
 from llmland_schemas.messages import Evidence, SafetySpec
 
-from .decide import LlmDecider
+from .batch import run_many
+from .decide import Decider, LlmDecider
 from .kb import KbEntry
 from .pipeline import Outcome, normalize_caption, rag_decider, run_llm, run_rag, run_retrieval
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
 log = logging.getLogger(__name__)
+
+#: (normalised caption, KB version, mode): what a cached spec depends on
+CacheKey = tuple[str, str, str]
 
 
 @dataclass(frozen=True)
@@ -66,7 +71,7 @@ class SpecExtractor:
         self.settings = settings or (resources.settings if resources else ReasonerSettings())
         needs_llm = mode == "llm" or (mode == "rag" and self.settings.rag_pointer == "llm")
         self.resources = resources or Resources.load(self.settings, retrieval=mode != "llm", llm=needs_llm)
-        self._cache: OrderedDict[tuple[str, str, str], Extraction] = OrderedDict()
+        self._cache: OrderedDict[CacheKey, Extraction] = OrderedDict()
         self._cache_lock = threading.Lock()
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix=f"reasoner-{mode}")
         self._llm_decider: LlmDecider | None = None  # kept: it caches the calibration scores
@@ -94,6 +99,55 @@ class SpecExtractor:
         except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
             return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
 
+    def extract_many(self, captions: Sequence[str]) -> list[Extraction]:
+        """:meth:`extract_detailed` for several captions at once (``batch.py``): cache hits
+        answered at once, the rest (each distinct caption once) computed as one batch within
+        ``timeout_s``; any failure gives that caption, or every caption of a failed shared
+        step, the conservative fallback. Never raises."""
+        started = time.perf_counter()
+        out: list[Extraction | None] = [None] * len(captions)
+        todo: dict[CacheKey, list[int]] = {}
+        for i, caption in enumerate(captions):
+            if not isinstance(caption, str):
+                out[i] = self._fallback("", started, f"caption must be a string, not {type(caption).__name__}")
+                continue
+            key: CacheKey = (normalize_caption(caption), self.resources.kb.version, self.mode)
+            hit = self._cache_get(key)
+            if hit is not None:
+                out[i] = replace(hit, spec=hit.spec.model_copy(update={"caption": caption, "latency_ms": _ms(started)}),
+                                 cached=True)
+            elif not key[0]:
+                out[i] = self._fallback(caption, started, "ValueError: empty caption")
+            else:
+                todo.setdefault(key, []).append(i)
+        if todo:
+            keys = list(todo)
+            first = [str(captions[todo[k][0]]) for k in keys]
+            try:
+                done = self._worker.submit(self._compute_many, keys, first).result(timeout=self.settings.timeout_s)
+            except FutureTimeout:
+                done = [self._fallback(c, started, f"timeout after {self.settings.timeout_s} s") for c in first]
+            except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
+                done = [self._fallback(c, started, f"{type(exc).__name__}: {exc}") for c in first]
+            for key, result in zip(keys, done, strict=True):
+                for i in todo[key]:
+                    spec = result.spec.model_copy(update={"caption": captions[i], "latency_ms": _ms(started)})
+                    out[i] = replace(result, spec=spec)
+        return [x for x in out if x is not None]
+
+    def cached(self, captions: Sequence[str]) -> list[Extraction] | None:
+        """Every caption's spec from the cache, or None when one is not there (no model work)."""
+        started = time.perf_counter()
+        out: list[Extraction] = []
+        for caption in captions:
+            key = (normalize_caption(caption), self.resources.kb.version, self.mode)
+            hit = self._cache_get(key)
+            if hit is None:
+                return None
+            spec = hit.spec.model_copy(update={"caption": caption, "latency_ms": _ms(started)})
+            out.append(replace(hit, spec=spec, cached=True))
+        return out
+
     def warm_up(self) -> None:
         """Evaluate the fixed prompt prefix once so the first real call pays only its suffix."""
         self.extract_detailed("a person standing on a grass field")
@@ -104,20 +158,38 @@ class SpecExtractor:
         return self._worker.submit(self.resources.add_entry, entry, save_to).result()
 
     def clear_cache(self) -> None:
+        """Forget cached specs and grounded mentions (after a KB write)."""
         with self._cache_lock:
             self._cache.clear()
+        if self.resources.mention_cache is not None:
+            self.resources.mention_cache.clear()
 
     def close(self) -> None:
         self._worker.shutdown(wait=True, cancel_futures=True)
 
     # ---------------------------------------------------------------- internal
-    def _compute(self, key: tuple[str, str, str], caption: str) -> Extraction:
+    def _compute(self, key: CacheKey, caption: str) -> Extraction:
         started = time.perf_counter()
         try:
             outcome = self._run(key[0])
         except Exception as exc:  # noqa: BLE001
             log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, exc)
             return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+        return self._finish(key, caption, outcome, started)
+
+    def _compute_many(self, keys: list[CacheKey], captions: list[str]) -> list[Extraction]:
+        started = time.perf_counter()
+        outcomes = run_many(self.mode, [k[0] for k in keys], self.resources, self.settings, self._decider())
+        out: list[Extraction] = []
+        for key, caption, outcome in zip(keys, captions, outcomes, strict=True):
+            if isinstance(outcome, Exception):
+                log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, outcome)
+                out.append(self._fallback(caption, started, f"{type(outcome).__name__}: {outcome}"))
+            else:
+                out.append(self._finish(key, caption, outcome, started))
+        return out
+
+    def _finish(self, key: CacheKey, caption: str, outcome: Outcome, started: float) -> Extraction:
         human: dict[str, Any] = {"is_human": outcome.is_human} if _HAS_IS_HUMAN else {}
         spec = SafetySpec(
             **human,
@@ -138,16 +210,21 @@ class SpecExtractor:
         log.debug("spec %s for %r: %s", self.mode, caption, spec.model_dump(exclude={"caption"}))
         return result
 
+    def _decider(self) -> Decider | None:
+        if self.mode != "rag":
+            return None
+        decider = rag_decider(self.resources, self.settings.rag_pointer, self._llm_decider)
+        if isinstance(decider, LlmDecider):
+            self._llm_decider = decider
+        return decider
+
     def _run(self, caption: str) -> Outcome:
         res, s = self.resources, self.settings
         if self.mode == "retrieval":
             return run_retrieval(caption, res, s.every_mention)
         if self.mode == "llm":
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
-        decider = rag_decider(res, s.rag_pointer, self._llm_decider)
-        if isinstance(decider, LlmDecider):
-            self._llm_decider = decider
-        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, decider)
+        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, self._decider())
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)
@@ -155,14 +232,14 @@ class SpecExtractor:
         spec = SafetySpec.conservative(caption, model=name, latency_ms=_ms(started), reason=error)
         return Extraction(spec=spec, error=error)
 
-    def _cache_get(self, key: tuple[str, str, str]) -> Extraction | None:
+    def _cache_get(self, key: CacheKey) -> Extraction | None:
         with self._cache_lock:
             hit = self._cache.get(key)
             if hit is not None:
                 self._cache.move_to_end(key)
             return hit
 
-    def _cache_put(self, key: tuple[str, str, str], value: Extraction) -> None:
+    def _cache_put(self, key: CacheKey, value: Extraction) -> None:
         if self.settings.cache_size <= 0:
             return
         with self._cache_lock:

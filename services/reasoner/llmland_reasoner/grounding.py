@@ -13,6 +13,8 @@ the evaluation set.
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -38,12 +40,20 @@ class Grounded:
     ranked: list[tuple[KbEntry, float]]
 
 
-class NameIndex:
-    """Cached embeddings of every entry's names, keyed by the entry's content."""
+#: Phrase vectors kept (captions and mention windows; 384 floats each, ~3 KB).
+PHRASE_CACHE_SIZE = 8192
 
-    def __init__(self, embed: EmbedFn) -> None:
+
+class NameIndex:
+    """Cached embeddings of every entry's names, keyed by the entry's content, and of the
+    phrases asked about (captions, mention windows), keyed by their text."""
+
+    def __init__(self, embed: EmbedFn, phrase_cache_size: int = PHRASE_CACHE_SIZE) -> None:
         self._embed = embed
         self._vectors: dict[str, np.ndarray] = {}
+        self._phrases: OrderedDict[str, np.ndarray] = OrderedDict()
+        self._phrase_cache_size = phrase_cache_size
+        self._lock = threading.Lock()
 
     def warm(self, entries: Sequence[KbEntry]) -> None:
         missing = [e for e in entries if names_text(e) not in self._vectors]
@@ -57,11 +67,22 @@ class NameIndex:
         return self._vectors[names_text(entry)]
 
     def phrase(self, text: str) -> np.ndarray:
-        return np.asarray(self._embed([text])[0], dtype=np.float64)
+        return self.phrases([text])[0]
 
     def phrases(self, texts: list[str]) -> list[np.ndarray]:
-        """Several phrases in one embedding call."""
-        return [np.asarray(v, dtype=np.float64) for v in self._embed(texts)]
+        """Several phrases; those not seen before in one embedding call."""
+        with self._lock:
+            known = {t: self._phrases[t] for t in texts if t in self._phrases}
+        missing = list(dict.fromkeys(t for t in texts if t not in known))
+        if missing:
+            fresh = [np.asarray(v, dtype=np.float64) for v in self._embed(missing)]
+            known.update(zip(missing, fresh, strict=True))
+            with self._lock:
+                for text, vector in zip(missing, fresh, strict=True):
+                    self._phrases[text] = vector
+                while len(self._phrases) > self._phrase_cache_size:
+                    self._phrases.popitem(last=False)
+        return [known[t] for t in texts]
 
 
 def rank_prior(n: int) -> np.ndarray:

@@ -26,7 +26,10 @@ import time
 from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .llm import ScoreRequest
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +65,8 @@ def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int)
         try:
             if op == "score":
                 value: Any = backend.score(*args)
+            elif op == "score_many":
+                value = backend.score_many(args[0])
             elif op == "complete":
                 value = backend.complete(*args)
             elif op == "warm":
@@ -99,6 +104,7 @@ class WorkerLlmBackend:
         self.crashes = 0
         self.last_error = ""
         self._prefixes: list[str] = []
+        self._evaluated: set[str] = set()  # prefixes the current worker has evaluated
         self._wake = threading.Event()
         self._start_worker()
         if self._state != "ready":
@@ -109,12 +115,22 @@ class WorkerLlmBackend:
     # ------------------------------------------------------------------ interface
     def score(self, prefix: str, suffix: str, continuations: Sequence[str],
               first_token_only: bool = False) -> list[float]:
-        self._remember(prefix)
-        return list(self._call("score", (prefix, suffix, list(continuations), first_token_only)))
+        return list(self._call("score", (prefix, suffix, list(continuations), first_token_only),
+                               timeout_s=self._timeout_for([prefix])))
+
+    def score_many(self, requests: Sequence[ScoreRequest]) -> list[list[float]]:
+        """Several ``score`` calls in one round trip; a worker lost during it fails them all
+        (:class:`LlmUnavailableError`: every caption of the batch gets the fallback)."""
+        if not requests:
+            return []
+        batch = [(p, s, list(c), f) for p, s, c, f in requests]
+        wait_s = self._timeout_for([r[0] for r in batch]) + self.call_timeout_s * (len(batch) - 1)
+        value = self._call("score_many", (batch,), timeout_s=wait_s)
+        return [list(v) for v in value]
 
     def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
-        self._remember(prefix)
-        return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature)))
+        return str(self._call("complete", (prefix, suffix, grammar, max_tokens, temperature),
+                              timeout_s=self._timeout_for([prefix])))
 
     def health(self) -> dict[str, Any]:
         with self._state_lock:
@@ -132,11 +148,20 @@ class WorkerLlmBackend:
             self._stop_worker(graceful=True)
 
     # ------------------------------------------------------------------ calls
-    def _remember(self, prefix: str) -> None:
-        if prefix not in self._prefixes:
-            self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
+    def _timeout_for(self, prefixes: Sequence[str]) -> float:
+        """How long a call may take: ``call_timeout_s``, or :data:`START_TIMEOUT_S` when the
+        worker has not evaluated one of its prompt prefixes yet (hundreds of tokens: on a
+        loaded CPU that first evaluation can take longer than any call, and killing the worker
+        for it would only make the next worker evaluate it again)."""
+        new = False
+        for prefix in prefixes:
+            if prefix not in self._prefixes:
+                self._prefixes = (self._prefixes + [prefix])[-MAX_WARM_PREFIXES:]
+            new = new or prefix not in self._evaluated
+        return max(self.call_timeout_s, START_TIMEOUT_S) if new else self.call_timeout_s
 
-    def _call(self, op: str, args: tuple[Any, ...]) -> Any:
+    def _call(self, op: str, args: tuple[Any, ...], timeout_s: float | None = None) -> Any:
+        wait_s = self.call_timeout_s if timeout_s is None else timeout_s
         self._raise_unless_ready()  # fail fast while the worker restarts: never queue behind it
         with self._call_lock:
             self._raise_unless_ready()
@@ -144,8 +169,8 @@ class WorkerLlmBackend:
             assert conn is not None
             try:
                 conn.send((op, args))
-                if not conn.poll(self.call_timeout_s):
-                    self._worker_lost(f"LLM worker gave no answer within {self.call_timeout_s:.1f} s (killed)")
+                if not conn.poll(wait_s):
+                    self._worker_lost(f"LLM worker gave no answer within {wait_s:.1f} s (killed)")
                     raise LlmUnavailableError(self.last_error)
                 kind, value = conn.recv()
             except (EOFError, OSError, BrokenPipeError):
@@ -153,6 +178,10 @@ class WorkerLlmBackend:
                 raise LlmUnavailableError(self.last_error) from None
             if kind == "error":
                 raise RuntimeError(f"LLM error: {value}")
+            if op in ("score", "complete"):
+                self._evaluated.add(args[0])
+            elif op == "score_many":
+                self._evaluated.update(r[0] for r in args[0])
             return value
 
     def _raise_unless_ready(self) -> None:
@@ -198,11 +227,22 @@ class WorkerLlmBackend:
                 self.last_error = str(value)
                 self._state = "failed"
             return
+        evaluated: set[str] = set()
         for prefix in list(self._prefixes):  # the new worker evaluates the known prefixes once
             parent.send(("warm", (prefix,)))
             if not parent.poll(START_TIMEOUT_S):
-                break
+                # its late answer would be read as the next call's: the pipe would stay one
+                # answer behind. A failed start instead (killed; the supervisor retries).
+                proc.kill()
+                proc.join(timeout=2.0)
+                parent.close()
+                with self._state_lock:
+                    self.last_error = f"no answer to the prefix warm-up within {START_TIMEOUT_S:.0f} s"
+                    self._state = "failed"
+                return
             parent.recv()
+            evaluated.add(prefix)
+        self._evaluated = evaluated
         with self._state_lock:
             self._proc, self._conn = proc, parent
             self._state = "ready"

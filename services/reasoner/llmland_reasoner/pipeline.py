@@ -17,7 +17,9 @@ from . import prompts
 from .decide import Decider, LlmDecider, RetrievalDecider
 from .grounding import ground
 from .kb import KbEntry
+from .llm import ScoreRequest
 from .mention import caption_words, choose_mention, content_positions
+from .mentions import Found
 from .resources import Resources
 from .safety import Alternative, Grounded, Numbers, ground_mentions, most_careful
 
@@ -84,7 +86,8 @@ def _most_careful(grounded: list[Grounded], chosen: list[Alternative | None], an
 
 
 def most_careful_of_mentions(caption: str, answer: Outcome, answer_entry: KbEntry, answer_source: str,
-                             res: Resources, pointed: str = "", decider: Decider | None = None) -> Outcome:
+                             res: Resources, pointed: str = "", decider: Decider | None = None,
+                             found: list[Found] | None = None) -> Outcome:
     """The safety layer: every mention of the caption grounded in the KB; the spec is the most
     careful present mention. A mention with other readings (``safety.other_readings``) takes
     the one ``decider`` chooses (rag: the LLM; none in retrieval: the rules' reading). The mode's
@@ -92,11 +95,13 @@ def most_careful_of_mentions(caption: str, answer: Outcome, answer_entry: KbEntr
     mention it names (the one holding ``pointed``, else the first that may take that entry)
     when that entry is allowed for it (same class, parked only when said); it is the spec as it
     stands only when the caption names nothing at all. The decider's readings stand only if the
-    caption's spec is then at least as careful as the rules' own (:func:`_at_least`)."""
+    caption's spec is then at least as careful as the rules' own (:func:`_at_least`). ``found``:
+    the caption's mentions when the caller has already found them (a batch)."""
     if res.finder is None or res.names is None:
         raise RuntimeError("the mention layer needs retrieval (embedder and WordNet)")
-    found = res.finder.find(caption)
-    grounded = ground_mentions(caption, found, res.kb, res.names, res.wordnet)
+    if found is None:
+        found = res.finder.find(caption)
+    grounded = ground_mentions(caption, found, res.kb, res.names, res.wordnet, res.mention_cache)
     absent = [MentionResult(text=f.text, status=f.status, source=f.source, label=f.word_class)
               for f in found if f.status != "present"]
     if not grounded:
@@ -145,11 +150,17 @@ def _embed_name(res: Resources) -> str:
     return res.embed.model_name if res.embed is not None else ""
 
 
-def run_retrieval(caption: str, res: Resources, every_mention: bool = True) -> Outcome:
-    hits = _retrieve(caption, res)
+def run_retrieval(caption: str, res: Resources, every_mention: bool = True,
+                  hits: list[tuple[KbEntry, float]] | None = None, found: list[Found] | None = None) -> Outcome:
+    """``hits``, ``found``: retrieval's answer and the caption's mentions when a batch has them."""
+    hits = hits if hits is not None else _retrieve(caption, res)
+    if not hits:
+        raise RuntimeError("retrieval returned nothing")
     evidence = [(entry.id, score) for entry, score in hits]
     answer = Outcome.from_entry(hits[0][0], _embed_name(res), evidence, retrieval_top1=hits[0][0].id)
-    return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res) if every_mention else answer
+    if not every_mention:
+        return answer
+    return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, found=found)
 
 
 def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -> Outcome:
@@ -178,6 +189,14 @@ def rag_decider(res: Resources, pointer: str, llm: LlmDecider | None = None) -> 
     return RetrievalDecider(res.kb, res.names)
 
 
+def rag_request(caption: str, hits: list[tuple[KbEntry, float]], context_in_prompt: bool) -> ScoreRequest:
+    """The LLM call of rag's pointer: the first-token log-probability of each content word."""
+    words = caption_words(caption)
+    labels = [entry.label for entry, _ in hits] if context_in_prompt else None
+    return (prompts.rag_prefix(context_in_prompt), prompts.rag_suffix(caption, labels),
+            [words[i] for i in content_positions(words)], True)
+
+
 def run_rag(
     caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm", every_mention: bool = True,
     decider: Decider | None = None,
@@ -188,6 +207,24 @@ def run_rag(
     if res.names is None:
         raise RuntimeError("rag needs retrieval")
     hits = _retrieve(caption, res)
+    logprobs: list[float] | None = None
+    if pointer == "llm":
+        if res.backend is None:
+            raise RuntimeError("rag needs the LLM")
+        logprobs = res.backend.score(*rag_request(caption, hits, context_in_prompt))
+    return finish_rag(caption, hits, logprobs, res, pointer, every_mention, decider)
+
+
+def finish_rag(
+    caption: str, hits: list[tuple[KbEntry, float]], logprobs: list[float] | None, res: Resources, pointer: str,
+    every_mention: bool, decider: Decider | None, found: list[Found] | None = None,
+) -> Outcome:
+    """Everything of rag after retrieval (``hits``) and the LLM's pointer (``logprobs``, the
+    answer to :func:`rag_request`; None in the ablations)."""
+    if res.names is None:
+        raise RuntimeError("rag needs retrieval")
+    if not hits:
+        raise RuntimeError("retrieval returned nothing")
     words = caption_words(caption)
     positions = content_positions(words)
     if pointer == "retrieval":
@@ -195,20 +232,13 @@ def run_rag(
                                     retrieval_top1=hits[0][0].id)
         if not every_mention:
             return answer
-        return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, decider=decider)
+        return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, decider=decider, found=found)
     if pointer == "first_word":
         logprobs = [0.0] + [-1.0] * (len(positions) - 1)
         name = "first-word"
     else:
-        if res.backend is None:
+        if res.backend is None or logprobs is None:
             raise RuntimeError("rag needs the LLM")
-        labels = [entry.label for entry, _ in hits] if context_in_prompt else None
-        logprobs = res.backend.score(
-            prompts.rag_prefix(context_in_prompt),
-            prompts.rag_suffix(caption, labels),
-            [words[i] for i in positions],
-            first_token_only=True,
-        )
         name = res.backend.name
     mention = choose_mention(words, positions, logprobs)
     chosen = ground(mention.window, hits, res.names)
@@ -217,4 +247,5 @@ def run_rag(
     answer = Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)
     if not every_mention:
         return answer
-    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word, decider=decider)
+    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word, decider=decider,
+                                    found=found)

@@ -18,8 +18,10 @@ from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
 from .llm import LlamaCppBackend, LlmBackend
 from .llm_worker import WorkerLlmBackend
+from .mention_cache import MentionCache
 from .mentions import MentionFinder
 from .retrieval import Retriever
+from .safety import NAME_MATCH_BONUS, WINDOW_WORDS
 from .settings import ReasonerSettings
 
 log = logging.getLogger(__name__)
@@ -48,6 +50,8 @@ class Resources:
     wordnet: WordNet | None = None
     finder: MentionFinder | None = None
     backend: LlmBackend | None = None
+    #: grounded mentions (``mention_cache.py``); a new one for every KB version
+    mention_cache: MentionCache | None = None
     load_s: dict[str, float] = field(default_factory=dict)
 
     @classmethod
@@ -83,7 +87,14 @@ class Resources:
         self.names.warm(self.kb.entries)
         if self.wordnet is not None:
             self.finder = MentionFinder(self.kb, self.wordnet)
+        self.mention_cache = MentionCache(self.grounding_settings_key())
         self.load_s["index"] = time.perf_counter() - t0
+
+    def grounding_settings_key(self) -> str:
+        """What a mention's grounding depends on besides the KB and the mention (see
+        ``mention_cache.py``): the embedder, WordNet readings on or off, the grounding constants."""
+        embed = self.embed.model_name if self.embed is not None else "-"
+        return f"embed={embed};wordnet={self.wordnet is not None};window={WINDOW_WORDS};bonus={NAME_MATCH_BONUS}"
 
     def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
         """Validate and add a KB entry (new version), optionally save the KB, rebuild the index."""

@@ -16,13 +16,14 @@ import re
 import shutil
 import threading
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 from llama_index.core import Settings, StorageContext, VectorStoreIndex, load_index_from_storage
 from llama_index.core.base.embeddings.base import BaseEmbedding
 from llama_index.core.retrievers import QueryFusionRetriever
 from llama_index.core.retrievers.fusion_retriever import FUSION_MODES
-from llama_index.core.schema import TextNode
+from llama_index.core.schema import QueryBundle, TextNode
 from llama_index.retrievers.bm25 import BM25Retriever
 
 from .kb import KbEntry, KnowledgeBase
@@ -120,16 +121,24 @@ class Retriever:
         self._bm25.similarity_top_k = _SUB_TOP_K
         log.info("index reloaded from %s", folder)
 
-    def retrieve(self, caption: str) -> list[tuple[KbEntry, float]]:
-        """The ``top_k`` KB entries for a caption, best first, with their fused scores."""
+    def retrieve(self, caption: str, embedding: list[float] | None = None) -> list[tuple[KbEntry, float]]:
+        """The ``top_k`` KB entries for a caption, best first, with their fused scores
+        (``embedding``: the caption's vector when the caller already has it)."""
         query = re.sub(r"\s+", " ", caption).strip()
         if not query:
             return []
         with self._lock:
-            hits = self._fusion.retrieve(query)
+            hits = self._fusion.retrieve(QueryBundle(query_str=query, embedding=embedding))
         out: list[tuple[KbEntry, float]] = []
         for hit in hits[: self.top_k]:
             kb_id = str(hit.node.metadata.get("kb_id", ""))
             if kb_id:
                 out.append((self.kb.get(kb_id), float(hit.score or 0.0)))
         return out
+
+    def retrieve_many(self, captions: Sequence[str]) -> list[list[tuple[KbEntry, float]]]:
+        """:meth:`retrieve` for several captions, their query vectors in one embedding call."""
+        queries = [re.sub(r"\s+", " ", c).strip() for c in captions]
+        todo = list(dict.fromkeys(q for q in queries if q))
+        vectors = dict(zip(todo, self.embed_model.get_text_embedding_batch(todo), strict=True)) if todo else {}
+        return [self.retrieve(q, vectors[q]) if q else [] for q in queries]

@@ -37,6 +37,7 @@ from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, CONSERVATIVE_Z_MIN_M
 from .grounding import NameIndex
 from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .lexicon import CLASS_WORDS, WordNet
+from .mention_cache import CachedGrounding, MentionCache
 from .mentions import Found, tokenize
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
@@ -204,39 +205,71 @@ def _best(pool: Sequence[KbEntry], query: np.ndarray | None, names: NameIndex, k
     return best, float(scores[best])
 
 
-def ground_mentions(
-    caption: str, mentions: Sequence[Found], kb: KnowledgeBase, names: NameIndex, wordnet: WordNet | None = None
-) -> list[Grounded]:
-    """Ground every present mention, and the other readings of each (when ``wordnet`` is
-    given); one batched embedding call for all windows."""
+def _context(caption: str, mentions: Sequence[Found]) -> tuple[list[Found], list[str], list[bool], list[bool]]:
+    """The present mentions, each one's window and its parked and ridden flags."""
     words = tokenize(caption)
     present = [m for m in mentions if m.status == "present"]
     texts = [window(words, m) for m in present]
     parked = [_parked(words, m, mentions) for m in present]
-    pools = [candidates(kb, m, parked[k], _ridden(m, mentions)) for k, m in enumerate(present)]
-    readings = [other_readings(m, wordnet) if wordnet is not None else ((), {}) for m in present]
-    todo = [k for k, pool in enumerate(pools) if len(pool) > 1 or readings[k][1]]
+    ridden = [_ridden(m, mentions) for m in present]
+    return present, texts, parked, ridden
+
+
+def uncached_windows(caption: str, mentions: Sequence[Found], kb: KnowledgeBase,
+                     cache: MentionCache | None) -> list[str]:
+    """The windows :func:`ground_mentions` may have to embed (those of mentions not in
+    ``cache``): a batch prefetches them in one embedding call."""
+    present, texts, parked, ridden = _context(caption, mentions)
+    if cache is None:
+        return texts
+    return [texts[k] for k, m in enumerate(present)
+            if not cache.has(cache.key(kb, m, texts[k], parked[k], ridden[k]))]
+
+
+def ground_mentions(
+    caption: str, mentions: Sequence[Found], kb: KnowledgeBase, names: NameIndex, wordnet: WordNet | None = None,
+    cache: MentionCache | None = None,
+) -> list[Grounded]:
+    """Ground every present mention, and the other readings of each (when ``wordnet`` is
+    given); one batched embedding call for all windows not already grounded in ``cache``."""
+    present, texts, parked, ridden = _context(caption, mentions)
+    keys = [] if cache is None else [cache.key(kb, m, texts[k], parked[k], ridden[k]) for k, m in enumerate(present)]
+    known = [None] * len(present) if cache is None else [cache.get(k) for k in keys]
+    todo_k = [k for k in range(len(present)) if known[k] is None]
+    pools = {k: candidates(kb, present[k], parked[k], ridden[k]) for k in todo_k}
+    readings = {k: other_readings(present[k], wordnet) if wordnet is not None else ((), {}) for k in todo_k}
+    todo = [k for k in todo_k if len(pools[k]) > 1 or readings[k][1]]
     vectors = names.phrases([texts[k] for k in todo]) if todo else []
     by_k = dict(zip(todo, vectors, strict=True))
     out: list[Grounded] = []
-    for k, (found, pool) in enumerate(zip(present, pools, strict=True)):
-        if not pool:
-            out.append(Grounded(found, CAREFUL))
-            continue
-        best, score = _best(pool, by_k.get(k), names, found.kb_id)
-        numbers = Numbers.of(pool[best])
-        plain, others = readings[k]
-        alternatives: list[Alternative] = []
-        for cls, words_of in others.items():
-            as_cls = Found(found.start, found.end, found.text, cls, "wordnet", None, found.status)
-            alt_pool = candidates(kb, as_cls, parked[k])
-            if alt_pool:
-                alt = Numbers.of(alt_pool[_best(alt_pool, by_k.get(k), names, None)[0]])
-                if dominates(alt, numbers):
-                    alternatives.append(Alternative(cls, words_of, alt))
-        out.append(Grounded(found, numbers, score, tuple(e.id for e in pool), plain if alternatives else (),
-                            tuple(alternatives)))
+    for k, found in enumerate(present):
+        done = known[k]
+        if done is None:
+            done = _ground_one(kb, names, found, pools[k], readings[k], by_k.get(k), parked[k])
+            if cache is not None:
+                cache.put(keys[k], done)
+        out.append(Grounded(found, done.numbers, done.score, done.pool, done.plain, done.alternatives))
     return out
+
+
+def _ground_one(kb: KnowledgeBase, names: NameIndex, found: Found, pool: Sequence[KbEntry],
+                readings: tuple[tuple[str, ...], dict[str, tuple[str, ...]]], vector: np.ndarray | None,
+                parked: bool) -> CachedGrounding:
+    if not pool:
+        return CachedGrounding(CAREFUL, 0.0, (), (), ())
+    best, score = _best(pool, vector, names, found.kb_id)
+    numbers = Numbers.of(pool[best])
+    plain, others = readings
+    alternatives: list[Alternative] = []
+    for cls, words_of in others.items():
+        as_cls = Found(found.start, found.end, found.text, cls, "wordnet", None, found.status)
+        alt_pool = candidates(kb, as_cls, parked)
+        if alt_pool:
+            alt = Numbers.of(alt_pool[_best(alt_pool, vector, names, None)[0]])
+            if dominates(alt, numbers):
+                alternatives.append(Alternative(cls, words_of, alt))
+    return CachedGrounding(numbers, score, tuple(e.id for e in pool), plain if alternatives else (),
+                           tuple(alternatives))
 
 
 def most_careful(items: Sequence[Numbers]) -> int:

@@ -78,7 +78,7 @@ def test_specs_for_every_drone_newest_scene_wins_and_query() -> None:
                 last = msgs[-1]
                 assert last.latency_ms >= 40.0 and last.objects[0].spec.is_dynamic
                 assert last.objects[0].centroid_m == (1.0, 2.0, 0.8)
-        assert service.stats["scenes_replaced"] > 0  # newest scene per drone wins
+        assert service.stats["scenes_superseded"] > 0  # newest scene per drone wins
         assert server.dropped[key("d0", Topic.SCENE)] == 1
 
         replies = list(client.session.get(REASONER_SPEC_QUERY, payload=b"a man walking a dog", timeout=5))

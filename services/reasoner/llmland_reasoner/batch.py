@@ -1,0 +1,106 @@
+"""Many captions at once (one reasoner serving many drones): each answer equals the one the
+caption would get alone (``pipeline.run_*``), with the work that batches done in batches.
+
+For ``rag`` and ``retrieval``, in order:
+
+1. retrieval for every caption, their query vectors in one MiniLM call;
+2. rag's LLM pointer for every caption in one request to the LLM (one round trip to the
+   worker process; :func:`~.llm.score_many`);
+3. the mentions of every caption, and one MiniLM call for every window not seen before
+   (the LLM pointer's windows and the windows of mentions not in the mention cache);
+4. the rest caption by caption (grounding from the mention cache, the decider, the most
+   careful mention): cheap once 1–3 are done.
+
+A failure in a shared step (retrieval, the LLM: a worker crash mid-batch) fails every caption
+of the batch that needed it; a failure in step 4 fails its caption only. The caller turns
+each failure into the conservative fallback spec. ``llm`` (the baseline) runs one by one.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from functools import partial
+
+from .decide import Decider
+from .kb import KbEntry
+from .llm import score_many
+from .mention import caption_words, choose_mention, content_positions
+from .mentions import Found
+from .pipeline import Outcome, finish_rag, rag_request, run_llm, run_retrieval
+from .resources import Resources
+from .safety import uncached_windows
+from .settings import Mode, ReasonerSettings
+
+log = logging.getLogger(__name__)
+
+Result = Outcome | Exception
+
+
+def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: ReasonerSettings,
+             decider: Decider | None) -> list[Result]:
+    """One :class:`~.pipeline.Outcome` or the exception that stopped it, per (normalised) caption."""
+    if mode == "llm":
+        return [_guard(partial(run_llm, c, res, settings.max_new_tokens, settings.temperature)) for c in captions]
+    if res.retriever is None or res.names is None:
+        return [RuntimeError("retrieval is not loaded")] * len(captions)
+    try:
+        hits = res.retriever.retrieve_many(captions)
+    except Exception as exc:  # noqa: BLE001 - every caption of the batch falls back
+        log.warning("batched retrieval failed for %d captions: %s", len(captions), exc)
+        return [exc] * len(captions)
+    logprobs: list[list[float] | None] = [None] * len(captions)
+    pointer = settings.rag_pointer
+    if mode == "rag" and pointer == "llm":
+        if res.backend is None:
+            return [RuntimeError("rag needs the LLM")] * len(captions)
+        asked = [k for k, h in enumerate(hits) if h]
+        try:
+            answers = score_many(res.backend, [rag_request(captions[k], hits[k], settings.rag_context_in_prompt)
+                                               for k in asked])
+        except Exception as exc:  # noqa: BLE001 - a worker lost mid-batch: every caption falls back
+            log.warning("batched LLM call failed for %d captions: %s", len(asked), exc)
+            return [exc] * len(captions)
+        for k, a in zip(asked, answers, strict=True):
+            logprobs[k] = a
+    found = _find_and_prefetch(captions, hits, logprobs, res, settings.every_mention)
+    out: list[Result] = []
+    for k, caption in enumerate(captions):
+        if mode == "retrieval":
+            out.append(_guard(partial(run_retrieval, caption, res, settings.every_mention, hits[k], found[k])))
+        else:
+            out.append(_guard(partial(finish_rag, caption, hits[k], logprobs[k], res, pointer, settings.every_mention,
+                                      decider, found[k])))
+    return out
+
+
+def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, float]]],
+                       logprobs: list[list[float] | None], res: Resources,
+                       every_mention: bool) -> list[list[Found] | None]:
+    """Each caption's mentions (None where finding failed: step 4 then finds them itself and
+    reports the error), and one embedding call for every window step 4 will need."""
+    found: list[list[Found] | None] = [None] * len(captions)
+    windows: list[str] = []
+    for k, caption in enumerate(captions):
+        try:
+            if logprobs[k] is not None and hits[k]:
+                words = caption_words(caption)
+                windows.append(choose_mention(words, content_positions(words), logprobs[k] or []).window)
+            if every_mention and res.finder is not None:
+                found[k] = res.finder.find(caption)
+                windows += uncached_windows(caption, found[k] or [], res.kb, res.mention_cache)
+        except Exception as exc:  # noqa: BLE001 - that caption's own step 4 meets it again
+            log.debug("prefetch skipped for %r: %s", caption, exc)
+    if windows and res.names is not None:
+        try:
+            res.names.phrases(list(dict.fromkeys(windows)))
+        except Exception as exc:  # noqa: BLE001 - step 4 embeds them itself
+            log.warning("batched window embedding failed: %s", exc)
+    return found
+
+
+def _guard(fn: Callable[[], Outcome]) -> Result:
+    try:
+        return fn()
+    except Exception as exc:  # noqa: BLE001 - that caption falls back
+        return exc
