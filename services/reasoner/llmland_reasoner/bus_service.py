@@ -6,7 +6,7 @@ are all cached is answered on arrival; otherwise each drone keeps only its newes
 drones' scenes in one batch, so a busy drone cannot starve the others (``fleet.py``).
 Publishes ``llmland/<d>/reasoner/spec`` stamped with the frame's stamp and the measured
 latency (captioning + the wait and reasoning since the scene arrived), so the
-planner applies it when it would really have arrived. Queryable ``llmland/reasoner/spec``:
+planner applies it when it would really have arrived. Queryable ``llmland/@ground/reasoner/spec``:
 a caption (UTF-8 text or ``{"caption": ...}``) → SafetySpec JSON.
 """
 

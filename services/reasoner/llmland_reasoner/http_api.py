@@ -129,7 +129,7 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
         check_image(data, settings.max_upload_bytes)
         caption = caption_fn(data)
         if caption is None:
-            raise HTTPException(503, "no VLE service answered on llmland/vle/caption: start llmland-vle")
+            raise HTTPException(503, "no VLE service answered on llmland/@ground/vle/caption: start llmland-vle")
         result = engine.extract(caption.text)
         return result.model_copy(update={"latency_ms": result.latency_ms + caption.latency_ms})
 
