@@ -239,12 +239,17 @@ class WorldModel:
         Semantic methods trust the spec: a thing the KB calls static is not swept along an
         apparent motion (the visible surface of a tree shifts as the drone moves around it),
         unless it is person-sized and moves or has moved: then the class was misread and it may be a person.
+        A static spec that cannot say whether it is human (``is_human`` None: the LLM without
+        retrieval, an unknown noun) makes anything that moves or has moved a possible person, as
+        geometry alone would (seen from above, a person's blob is not person-sized).
         """
         s, moving = self.settings, self._moving(tr)
         if self.semantic:
             spec = self.spec_for(tr, t_s)
             if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
                 person = spec.is_human is not False
+            elif spec.is_human is None:  # the spec cannot say (the LLM alone, an unknown noun):
+                person = moving or tr.has_moved  # never less careful than geometry alone
             else:  # a static class: a misread only if it is person-sized and has moved
                 person = bool(spec.is_human) or ((moving or tr.has_moved) and self._person_sized(tr))
             believed = moving and (spec.is_dynamic or person)

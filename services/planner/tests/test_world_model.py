@@ -140,3 +140,22 @@ def test_a_person_who_walked_then_stopped_stays_a_possible_person_for_the_baseli
         t += 0.5
     people = wm.people(t - 0.5)
     assert len(people) == 1 and people[0].speed_mps < s.moving_speed_mps
+
+
+def test_a_mover_the_spec_calls_static_without_saying_human_is_a_possible_person():
+    """`llm` (no retrieval) answers "static" with is_human unknown; seen from above a person's blob is
+    not person-sized, so the misread rule missed them and a person walked under the descending
+    drone (exp1 seed 3, 0.76 m). Such a mover is a possible person, as geometry alone would say."""
+    s = PlannerSettings()
+    wm = WorldModel(s, "llm")
+    static = SafetySpec(is_dynamic=False, z_min=0.0, buffer_m=0.5, label="bench", source="llm")
+    t, x = 0.0, 5.0
+    for _ in range(6):  # a head-and-shoulders blob from above, walking at 1.2 m/s
+        wm.tracker.update([_blob(x, 0.0, h=0.4)], t)
+        wm.on_spec(SafetySpecMessage(stamp=t, scene=static, latency_ms=0.0, objects=[
+            ObjectSpec(obj_id="b0", centroid_m=(x, 0.0, 0.2), size_m=(0.5, 0.5, 0.4), spec=static)]))
+        wm.release_specs(t)
+        wm.ingest(t)
+        t, x = t + 0.5, x + 0.6
+    assert wm.spec_for(wm.tracker.tracks()[0], t - 0.5).is_human is None
+    assert len(wm.people(t - 0.5)) == 1
