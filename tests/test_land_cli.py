@@ -57,3 +57,29 @@ def test_land_realtime_clock(tmp_path: Path) -> None:
     assert result["outcome"] in ("landed", "off_target", "close_call"), result
     # paced to the wall clock: never much faster than real time
     assert result["wall_time_s"] >= 0.8 * result["sim_time_s"]
+
+
+def test_sigterm_to_land_stops_every_service() -> None:
+    """`kill <pid of llmland land>` used to leave the four services running."""
+    import signal
+    import subprocess
+    import time
+
+    import psutil
+
+    from .conftest import BIN, REPO
+
+    proc = subprocess.Popen([str(BIN / "llmland"), "land", "--method", "baseline", "--seed", "1"], cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + 60.0
+    services: list[psutil.Process] = []
+    while time.monotonic() < deadline and len(services) < 2:  # sim and planner
+        services = parent.children(recursive=True)
+        time.sleep(0.2)
+    assert len(services) >= 2, "the services did not start"
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGTERM)
+    proc.wait(timeout=30)
+    _, alive = psutil.wait_procs(services, timeout=10)
+    assert not alive, [p.pid for p in alive]
