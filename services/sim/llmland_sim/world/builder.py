@@ -162,16 +162,7 @@ class WorldBuilder:
             rk = r0 * float(rng.uniform(*ROCK_LOBE_RATIO_RANGE))
             off = ROCK_LOBE_OFFSET * r0
             lobes.append((off * math.cos(a), off * math.sin(a), ROCK_LOBE_LIFT * rk, rk))
-        fr = max(math.hypot(x, y) + r for x, y, _, r in lobes)
-        fp = Footprint((float(xy[0]), float(xy[1])), fr)
-        if not lay.fits(fp):
-            return False
-        lay.add(fp)
-        z = self.sink_z(xy, fr)
-        body = shapes.create_rock(self.client, self.crng, (xy[0], xy[1], z), lobes)
-        h = max(zc + r for _, _, zc, r in lobes)
-        self.add_static("rock", body, (2 * fr, 2 * fr, h), (xy[0], xy[1], z), 0.0, fp)
-        return True
+        return self._place_lobed(lay, xy, "rock", lobes, shapes.create_rock)
 
     def try_crate(self, lay: Layout, xy: FloatArray) -> bool:
         rng = self.rng
@@ -198,15 +189,20 @@ class WorldBuilder:
             off = 0.0 if k == 0 else float(rng.uniform(*BUSH_LOBE_OFFSET_RANGE_M))
             a = float(rng.uniform(0, 2 * math.pi))
             lobes.append((off * math.cos(a), off * math.sin(a), BUSH_LOBE_LIFT * r, r))
+        return self._place_lobed(lay, xy, "bush", lobes, shapes.create_bush)
+
+    def _place_lobed(self, lay: Layout, xy: FloatArray, cls: str, lobes: list[tuple[float, float, float, float]],
+                     create: Callable[..., int]) -> bool:
+        """Place an object made of sphere lobes ``(dx, dy, z, r)`` (m) if its disc footprint fits."""
         fr = max(math.hypot(x, y) + r for x, y, _, r in lobes)
         fp = Footprint((float(xy[0]), float(xy[1])), fr)
         if not lay.fits(fp):
             return False
         lay.add(fp)
         z = self.sink_z(xy, fr)
-        body = shapes.create_bush(self.client, self.crng, (xy[0], xy[1], z), lobes)
+        body = create(self.client, self.crng, (xy[0], xy[1], z), lobes)
         h = max(zc + r for _, _, zc, r in lobes)
-        self.add_static("bush", body, (2 * fr, 2 * fr, h), (xy[0], xy[1], z), 0.0, fp)
+        self.add_static(cls, body, (2 * fr, 2 * fr, h), (xy[0], xy[1], z), 0.0, fp)
         return True
 
     def try_box_object(
