@@ -12,11 +12,10 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import get_args
 
 from llmland_schemas import EpisodeResult, MissionGoal
 from llmland_schemas.bus import DEFAULT_ENDPOINT
-from llmland_schemas.messages import MethodName, WorldName
+from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint
@@ -26,8 +25,8 @@ from .view import add_view_parser
 
 log = logging.getLogger("llmland")
 
-WORLDS = list(get_args(WorldName))
-METHODS = list(get_args(MethodName))
+WORLDS = list(WORLD_NAMES)
+METHODS = list(METHOD_NAMES)
 #: how often `llmland up` logs the reasoner's specs per drone (s), when they changed
 SERVED_LOG_PERIOD_S = 30.0
 

@@ -19,6 +19,7 @@ import threading
 from llmland_schemas import (
     PERSON_BUFFER_M,
     PERSON_Z_MIN_M,
+    STATIC_BUFFER_M,
     VEHICLE_BUFFER_M,
     VEHICLE_Z_MIN_M,
     CameraFrameHeader,
@@ -45,9 +46,9 @@ def _spec(label: str, dynamic: bool, z_min: float, buffer_m: float) -> SafetySpe
 DEFAULT_SPECS: dict[str, SafetySpec] = {
     "person": _spec("person", True, PERSON_Z_MIN_M, PERSON_BUFFER_M),
     "vehicle": _spec("vehicle", True, VEHICLE_Z_MIN_M, VEHICLE_BUFFER_M),
-    "building": _spec("building", False, 0.0, 1.0),
-    "shed": _spec("shed", False, 0.0, 1.0),
-    "tree": _spec("tree", False, 0.0, 1.0),
+    "building": _spec("building", False, 0.0, STATIC_BUFFER_M),
+    "shed": _spec("shed", False, 0.0, STATIC_BUFFER_M),
+    "tree": _spec("tree", False, 0.0, STATIC_BUFFER_M),
     "bush": _spec("bush", False, 0.0, 0.5),
     "rock": _spec("rock", False, 0.0, 0.5),
 }

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
+from llmland_schemas import PERSON_HARD_LIMIT_M
 
 from .conftest import run_cli
 
@@ -36,10 +37,9 @@ def test_given_pedestrian_spec_lands_outside_reach() -> None:
     assert proc.returncode == 0, proc.stderr[-3000:]
     r = json.loads(proc.stdout)
     assert r["collisions"] == [] and r["close_calls"] == 0, r
-    assert min(r["min_person_distance_m"].values()) > HARD_LIMIT_M, r
+    assert min(r["min_person_distance_m"].values()) > PERSON_HARD_LIMIT_M, r
     assert r["outcome"] == "landed", r
     assert r["mpc_solve_ms_p50"] is not None and r["mpc_solve_ms_p50"] < 20
 
 
 SEED = "3"
-HARD_LIMIT_M = 1.0

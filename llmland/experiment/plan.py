@@ -15,11 +15,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from llmland_schemas import METHOD_NAMES, WORLD_NAMES
+
 from ..stacks import StackConfig
 
 EXPERIMENTS = ("exp1", "exp2", "exp3")
-ALL_METHODS = ("baseline", "conservative", "llm", "llm-land")
-ALL_WORLDS = ("open_field", "urban", "forest_edge")
+#: the methods an experiment compares (every method but the sim's own reference controller)
+ALL_METHODS: tuple[str, ...] = tuple(m for m in METHOD_NAMES if m != "reference")
+ALL_WORLDS: tuple[str, ...] = WORLD_NAMES
 #: the default model's row name in exp3
 DEFAULT_LLM = "SmolLM2-135M-Instruct (measured)"
 

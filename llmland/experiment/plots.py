@@ -10,14 +10,12 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from llmland_schemas import PERSON_HARD_LIMIT_M  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
 from .traces import load_trace  # noqa: E402
 
 log = logging.getLogger(__name__)
-
-#: the scored hard limit (DESIGN §8): never within this distance (m) of a person
-CLOSE_CALL_M = 1.0
 
 
 def _name(row: dict[str, Any]) -> str:
@@ -52,7 +50,7 @@ def closest_approach(rows: list[dict[str, str]], path: Path) -> None:
             groups.setdefault(_name(r).replace("\n", " "), []).append(float(r["closest_person_m"]))
     for name, vals in groups.items():
         ax.hist(vals, bins=24, range=(0.0, 8.0), histtype="step", linewidth=1.6, label=name)
-    ax.axvline(CLOSE_CALL_M, color="red", linestyle="--", label="1 m hard limit")
+    ax.axvline(PERSON_HARD_LIMIT_M, color="red", linestyle="--", label="1 m hard limit")
     ax.set_xlabel("closest approach to a person per trial (m)")
     ax.set_ylabel("trials")
     ax.legend(fontsize=8)

@@ -20,9 +20,9 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 from numpy.typing import ArrayLike
 
-from llmland_planner.dynamics import FloatArray
 from llmland_planner.path import Path
 from llmland_planner.regions import UnsafeRegion, boxes_array, segments_hit_boxes
 

@@ -14,8 +14,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from .dynamics import FloatArray
+from llmland_schemas.arrays import FloatArray
 
 #: the reference ends this far (m) above the touchdown point, at rest
 REFERENCE_FLOOR_M = 0.03

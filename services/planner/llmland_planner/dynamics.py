@@ -22,9 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
-
-FloatArray = NDArray[np.float64]
+from llmland_schemas.arrays import FloatArray
 
 NX = 9
 NU = 4

@@ -18,9 +18,8 @@ from __future__ import annotations
 import threading
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 from scipy import ndimage
-
-from .dynamics import FloatArray
 
 #: grid cell (m), half size of the mapped square (m) and erosion window radius (m)
 CELL_M = 1.0

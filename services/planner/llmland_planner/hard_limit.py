@@ -31,17 +31,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas import PERSON_HARD_LIMIT_M
+from llmland_schemas.arrays import FloatArray
 
-from .dynamics import FloatArray
-
-#: The scored hard limit (DESIGN §8): distance (m) from the vehicle to a person's body axis.
-HARD_LIMIT_M = 1.0
 #: Tallest person assumed (m, head height above their feet; adult stature, 99.9th percentile < 2 m).
 PERSON_MAX_HEIGHT_M = 2.0
 #: A person's body axis lies within this distance (m) of any part of their body seen.
 PERSON_BODY_RADIUS_M = 0.3
 #: Above this height over the ground (m) nobody can be within the hard limit.
-REACH_CEILING_M = PERSON_MAX_HEIGHT_M + HARD_LIMIT_M
+REACH_CEILING_M = PERSON_MAX_HEIGHT_M + PERSON_HARD_LIMIT_M
 
 
 @dataclass(frozen=True)
@@ -111,7 +109,7 @@ def coverage_radius_m(height_m: float, half_fov_rad: float, tilt_rad: float = 0.
 
 def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], duration_s: float,
                      bounds: HumanMotionBounds, *, coverage_m: float, frame_period_s: float,
-                     xy_margin_m: float, hard_limit_m: float = HARD_LIMIT_M) -> Clearance:
+                     xy_margin_m: float, hard_limit_m: float = PERSON_HARD_LIMIT_M) -> Clearance:
     """Margin to the hard limit if the vehicle is at ``landing_xy`` until ``duration_s`` from now.
 
     Tracked people: ``|landing − c| − r − R(age + T, speed)``; untracked people:

@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
 from .descent import DescentProfile
-from .dynamics import FloatArray
 from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
 from .regions import UnsafeRegion
 from .settings import PlannerSettings

@@ -26,8 +26,9 @@ from typing import Any
 import clarabel
 import numpy as np
 import scipy.sparse as sp
+from llmland_schemas.arrays import FloatArray
 
-from llmland_planner.dynamics import NU, NX, FloatArray, ModelParams, linearize_discrete
+from llmland_planner.dynamics import NU, NX, ModelParams, linearize_discrete
 from llmland_planner.mpc_layout import QpIndex, build_constraints, build_cost, dynamics_masks
 
 log = logging.getLogger(__name__)

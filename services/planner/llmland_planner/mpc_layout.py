@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
+from llmland_schemas.arrays import FloatArray
 from numpy.typing import NDArray
 
-from llmland_planner.dynamics import NU, NX, FloatArray
+from llmland_planner.dynamics import NU, NX
 
 IntArray = NDArray[np.int64]
 

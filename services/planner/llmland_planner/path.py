@@ -13,8 +13,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from llmland_planner.dynamics import FloatArray
+from llmland_schemas.arrays import FloatArray
 
 SHOT_T_FACTORS = np.array([1.0, 1.15, 1.3, 1.5, 1.75, 2.0, 2.5, 3.0, 4.0, 6.0])
 

@@ -28,10 +28,11 @@ from llmland_schemas import (
     SafetySpecMessage,
     VehicleState,
 )
+from llmland_schemas.arrays import FloatArray
 from llmland_schemas.frames import CameraFrame
 
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
-from .dynamics import FloatArray, ModelParams
+from .dynamics import ModelParams
 from .hard_limit import REACH_CEILING_M, coverage_radius_m
 from .landing import LandingLogic, Phase, Surroundings
 from .mpc import MpcController, MpcResult

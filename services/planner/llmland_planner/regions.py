@@ -24,11 +24,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
-
-from llmland_planner.dynamics import FloatArray
-
-BoolArray = NDArray[np.bool_]
+from llmland_schemas.arrays import BoolArray, FloatArray
+from numpy.typing import ArrayLike
 
 MAX_SWEEP_SLICES = 8
 #: vertical clearance (m) kept above an obstacle's top, at most its buffer

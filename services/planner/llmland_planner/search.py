@@ -39,13 +39,13 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas.arrays import BoolArray, FloatArray
 from numpy.typing import ArrayLike, NDArray
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from llmland_planner.dynamics import FloatArray
 from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
-from llmland_planner.regions import BoolArray, UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
+from llmland_planner.regions import UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
 
 __all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
 

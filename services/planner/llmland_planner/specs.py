@@ -12,8 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from llmland_schemas import ObjectSpec, SafetySpec
-
-from .dynamics import FloatArray
+from llmland_schemas.arrays import FloatArray
 
 
 @dataclass(frozen=True)

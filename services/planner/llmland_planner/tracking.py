@@ -23,10 +23,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 from llmland_schemas.depth import Blob
 from scipy.optimize import linear_sum_assignment
 
-from llmland_planner.dynamics import FloatArray
 from llmland_planner.specs import AttachedSpec
 
 log = logging.getLogger(__name__)

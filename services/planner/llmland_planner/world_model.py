@@ -28,15 +28,14 @@ Three views of the tracks, one per use (DESIGN §6):
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from llmland_schemas import PERSON_BUFFER_M, PERSON_Z_MIN_M, SafetySpec, SafetySpecMessage
+from llmland_schemas.arrays import FloatArray
 from llmland_schemas.depth import Blob, backproject, find_blobs
 from llmland_schemas.frames import CameraFrame
 
-from .dynamics import FloatArray
 from .ground import GroundMap
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
 from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
@@ -79,16 +78,15 @@ def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
         q = t_cw[:3, :3] @ np.asarray(p, dtype=float) + t_cw[:3, 3]
         if q[2] <= FRUSTUM_NEAR_M or q[2] > max_range_m:
             return False
-        u, v = k.fx * q[0] / q[2] + k.cx, k.fy * q[1] / q[2] + k.cy
-        return bool(0 <= u < k.width and 0 <= v < k.height)
+        u, v = k.project(q)[0]
+        return k.in_image(float(u), float(v))
 
     return visible
 
 
 def half_fov_rad(frame: CameraFrame) -> float:
     """Half of the narrower field of view (rad) of a frame's pinhole camera."""
-    k = frame.header.intrinsics
-    return min(math.atan(0.5 * k.width / k.fx), math.atan(0.5 * k.height / k.fy))
+    return frame.header.intrinsics.half_fov_rad
 
 
 class WorldModel:

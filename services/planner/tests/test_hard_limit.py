@@ -11,7 +11,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from llmland_planner.descent import DescentProfile
 from llmland_planner.hard_limit import (
-    HARD_LIMIT_M,
     PERSON_BODY_RADIUS_M,
     PERSON_MAX_HEIGHT_M,
     HumanMotionBounds,
@@ -21,6 +20,7 @@ from llmland_planner.hard_limit import (
 )
 from llmland_planner.landing import LandingLogic, Surroundings
 from llmland_planner.settings import PlannerSettings
+from llmland_schemas import PERSON_HARD_LIMIT_M
 
 BOUNDS = HumanMotionBounds()
 SETTINGS = PlannerSettings()
@@ -110,7 +110,7 @@ def test_people_within_the_bounds_never_come_within_1_m_of_a_descent_the_gate_al
         if t >= 0.0:
             h = heights[min(int(t / DT_S), heights.size - 1)]
             drone = np.array([*drone_xy, TARGET[2] + h])
-            assert _distance_to_axis(drone, pos, PERSON_MAX_HEIGHT_M) >= HARD_LIMIT_M, (t, pos, drone)
+            assert _distance_to_axis(drone, pos, PERSON_MAX_HEIGHT_M) >= PERSON_HARD_LIMIT_M, (t, pos, drone)
 
 
 def test_gate_duration_covers_the_descent_and_the_touchdown_dwell() -> None:

@@ -39,6 +39,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
+from llmland_schemas import ANIMAL_BUFFER_M, PERSON_BUFFER_M, STATIC_BUFFER_M, VEHICLE_BUFFER_M
 from pydantic import BaseModel
 
 from .extractor import SpecExtractor
@@ -47,7 +48,8 @@ from .settings import Mode, ReasonerSettings
 
 log = logging.getLogger(__name__)
 
-BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": 1.0, "person": 3.0, "animal": 4.0, "vehicle": 5.0}
+BUFFER_CLASSES: dict[str, float] = {"ground": 0.0, "static": STATIC_BUFFER_M, "person": PERSON_BUFFER_M,
+                                     "animal": ANIMAL_BUFFER_M, "vehicle": VEHICLE_BUFFER_M}
 MODES: tuple[Mode, ...] = ("rag", "llm", "retrieval")
 _POINTER_ENV = "LLMLAND_REASONER_RAG_POINTER"  # rag_first_word, rag_retrieval_top1: rag without the LLM
 _EVERY_MENTION_ENV = "LLMLAND_REASONER_EVERY_MENTION"  # *_single_answer: without the safety layer

@@ -16,6 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Annotated, Literal
 
+from llmland_schemas import ANIMAL_BUFFER_M, PERSON_BUFFER_M, VEHICLE_BUFFER_M
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 log = logging.getLogger(__name__)
@@ -23,7 +24,7 @@ log = logging.getLogger(__name__)
 #: Minimum horizontal buffers by category (metres). Person and vehicle: the paper's defaults
 #: (pedestrians 3 m, vehicles 5 m); animal: the KB's animal class (they move less predictably
 #: than people and ignore the drone).
-MIN_BUFFER_M: dict[str, float] = {"person": 3.0, "animal": 4.0, "vehicle": 5.0}
+MIN_BUFFER_M: dict[str, float] = {"person": PERSON_BUFFER_M, "animal": ANIMAL_BUFFER_M, "vehicle": VEHICLE_BUFFER_M}
 #: Categories whose members move by themselves.
 LIVING = frozenset({"person", "animal"})
 

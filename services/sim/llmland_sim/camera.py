@@ -36,18 +36,17 @@ import sys
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
-from numpy.typing import ArrayLike, NDArray
+from llmland_schemas import CameraIntrinsics
+from llmland_schemas.arrays import FloatArray, VecLike
+from numpy.typing import NDArray
 
 logger = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
 #: A point / vector / quaternion given as a sequence or a numpy array.
-VecLike = Sequence[float] | NDArray[Any]
 
 #: Colour given to background pixels (nothing within the far plane), RGB uint8.
 SKY_RGB = (185, 210, 235)
@@ -235,55 +234,6 @@ def quat_to_matrix(quat_xyzw: VecLike) -> FloatArray:
     )
 
 
-@dataclass(frozen=True)
-class CameraIntrinsics:
-    """Pinhole intrinsics in pixels: ``u = fx * x / z + cx``, ``v = fy * y / z + cy``.
-
-    ``(u, v)`` are the integer column / row indices of the pixel whose sample ray is
-    ``((u - cx) / fx, (v - cy) / fy, 1)`` in the optical frame.
-    """
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
-
-    @classmethod
-    def from_hfov(cls, width: int, height: int, hfov_deg: float) -> CameraIntrinsics:
-        """Square-pixel intrinsics for a horizontal field of view ``hfov_deg``, centred pixels."""
-        fx = 0.5 * width / math.tan(math.radians(hfov_deg) / 2.0)
-        return cls(fx, fx, (width - 1) / 2.0, (height - 1) / 2.0, width, height)
-
-    @property
-    def K(self) -> FloatArray:  # noqa: N802 (standard name)
-        """Camera matrix (3, 3)."""
-        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
-
-    @property
-    def hfov_deg(self) -> float:
-        """Horizontal field of view (deg)."""
-        return math.degrees(2.0 * math.atan(0.5 * self.width / self.fx))
-
-    @property
-    def vfov_deg(self) -> float:
-        """Vertical field of view (deg), what ``computeProjectionMatrixFOV`` takes."""
-        return math.degrees(2.0 * math.atan(0.5 * self.height / self.fy))
-
-    def project(self, points_cam: ArrayLike) -> FloatArray:
-        """Pixel coordinates (N, 2) ``(u, v)`` of optical-frame points (N, 3) with ``z > 0``."""
-        pts = np.atleast_2d(np.asarray(points_cam, dtype=float))
-        return np.stack([self.fx * pts[:, 0] / pts[:, 2] + self.cx, self.fy * pts[:, 1] / pts[:, 2] + self.cy], 1)
-
-    def backproject(self, u: ArrayLike, v: ArrayLike, depth_m: ArrayLike) -> FloatArray:
-        """Optical-frame points (..., 3) at pixels ``(u, v)`` with z-depth ``depth_m``."""
-        z = np.asarray(depth_m, dtype=float)
-        x = (np.asarray(u, dtype=float) - self.cx) / self.fx * z
-        y = (np.asarray(v, dtype=float) - self.cy) / self.fy * z
-        return np.stack(np.broadcast_arrays(x, y, z), axis=-1)
-
-
 @dataclass
 class CameraRender:
     """One rendered frame.
@@ -310,26 +260,6 @@ class CameraRender:
     renderer: str = "tiny"
     render_time_s: float = 0.0
     has_seg: bool = True
-
-    def points_camera(self, stride: int = 1) -> FloatArray:
-        """Optical-frame points (N, 3) of the finite depth pixels, every ``stride``-th row/column."""
-        v, u = np.mgrid[0 : self.intrinsics.height : stride, 0 : self.intrinsics.width : stride]
-        d = self.depth_m[::stride, ::stride].astype(np.float64)
-        ok = np.isfinite(d)
-        return self.intrinsics.backproject(u[ok], v[ok], d[ok])
-
-    def points_world(self, stride: int = 1) -> FloatArray:
-        """World-frame points (N, 3) of the finite depth pixels (see :meth:`points_camera`)."""
-        pc = self.points_camera(stride)
-        return pc @ self.T_world_camera[:3, :3].T + self.T_world_camera[:3, 3]
-
-    def pixel_to_world(self, u: int, v: int) -> FloatArray:
-        """World point (3,) seen at pixel column ``u``, row ``v`` (inf-filled if no hit)."""
-        d = float(self.depth_m[v, u])
-        if not math.isfinite(d):
-            return np.full(3, np.inf)
-        pc = self.intrinsics.backproject(float(u), float(v), d)
-        return self.T_world_camera[:3, :3] @ pc + self.T_world_camera[:3, 3]
 
 
 class RgbdCamera:
@@ -378,7 +308,7 @@ class RgbdCamera:
             self.renderer = "egl"
         intr = CameraIntrinsics.from_hfov(int(width), int(height), hfov_deg)
         if self.renderer == "tiny":  # TinyRenderer samples pixel corners (measured, see module doc)
-            intr = replace(intr, cx=width / 2.0, cy=height / 2.0 - 1.0)
+            intr = intr.model_copy(update={"cx": width / 2.0, "cy": height / 2.0 - 1.0})
         self.intrinsics = intr
         self._pb_renderer = p.ER_TINY_RENDERER if self.renderer == "tiny" else p.ER_BULLET_HARDWARE_OPENGL
         self._proj = list(

@@ -10,9 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from llmland_schemas import PERSON_HARD_LIMIT_M
 
 SUCCESS_RADIUS_M = 0.5
-PERSON_BUFFER_M = 1.0
 
 
 def distance_to_person(drone_m: np.ndarray, person_base_m: np.ndarray, height_m: float) -> float:
@@ -39,7 +39,7 @@ class EpisodeScore:
             d = distance_to_person(drone_m, base, height)
             if d < self.min_person_distance_m.get(pid, np.inf):
                 self.min_person_distance_m[pid] = d
-            if d < PERSON_BUFFER_M:
+            if d < PERSON_HARD_LIMIT_M:
                 self.close_call_people.add(pid)
 
     def observe_collision(self, obj_id: str) -> None:

@@ -14,7 +14,6 @@ import pybullet as p
 from llmland_schemas import (
     CameraFrame,
     CameraFrameHeader,
-    CameraIntrinsics,
     ControlCommand,
     EpisodeResult,
     GroundTruth,
@@ -237,7 +236,7 @@ class Simulation:
             seq=self.seq,
             width=k.width,
             height=k.height,
-            intrinsics=CameraIntrinsics(fx=k.fx, fy=k.fy, cx=k.cx, cy=k.cy, width=k.width, height=k.height),
+            intrinsics=k,
             T_world_camera=[float(x) for x in np.asarray(r.T_world_camera).reshape(-1)],
             vehicle_position_m=vec3(st.pos_m),
             episode_id=self.mission.episode_id,

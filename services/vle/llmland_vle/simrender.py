@@ -11,17 +11,15 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, get_args
+from typing import TYPE_CHECKING
 
 import numpy as np
-from llmland_schemas.messages import WorldName
+from llmland_schemas.messages import WORLD_NAMES
 
 if TYPE_CHECKING:
     from llmland_sim.camera import RgbdCamera
     from llmland_sim.world import World
 
-#: The simulator's worlds, in their seed order.
-WORLD_NAMES: tuple[str, ...] = get_args(WorldName)
 #: Benchmark frames: the seed of every world, the end height (m) above the target, the yaw sway (rad).
 BENCH_SEED = 7
 BENCH_END_HEIGHT_M = 2.0

@@ -1,5 +1,6 @@
 """LLM-Land shared message models, key expressions, codecs and bus helpers."""
 
+from .camera import CameraIntrinsics
 from .codec import MessageError, decode, encode
 from .frames import CameraFrame, decode_frame, encode_frame
 from .keys import (
@@ -16,15 +17,19 @@ from .keys import (
     validate_drone_id,
 )
 from .messages import (
+    ANIMAL_BUFFER_M,
     CONSERVATIVE_BUFFER_M,
     CONSERVATIVE_Z_MIN_M,
+    METHOD_NAMES,
     PERSON_BUFFER_M,
+    PERSON_HARD_LIMIT_M,
     PERSON_Z_MIN_M,
     SCHEMA_VERSION,
+    STATIC_BUFFER_M,
     VEHICLE_BUFFER_M,
     VEHICLE_Z_MIN_M,
+    WORLD_NAMES,
     CameraFrameHeader,
-    CameraIntrinsics,
     Caption,
     ControlCommand,
     CorridorPolytope,
@@ -49,9 +54,13 @@ from .messages import (
 )
 
 __all__ = [
+    "ANIMAL_BUFFER_M",
     "CONSERVATIVE_BUFFER_M",
+    "METHOD_NAMES",
+    "WORLD_NAMES",
     "CONSERVATIVE_Z_MIN_M",
     "PERSON_BUFFER_M",
+    "PERSON_HARD_LIMIT_M",
     "PERSON_Z_MIN_M",
     "VEHICLE_BUFFER_M",
     "VEHICLE_Z_MIN_M",
@@ -59,6 +68,7 @@ __all__ = [
     "GROUND",
     "REASONER_SPEC_QUERY",
     "SCHEMA_VERSION",
+    "STATIC_BUFFER_M",
     "VLE_CAPTION_QUERY",
     "CameraFrame",
     "CameraFrameHeader",

@@ -20,34 +20,22 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from .arrays import BoolArray, FloatArray
+
 if TYPE_CHECKING:
+    from .camera import CameraIntrinsics
     from .frames import CameraFrame
 
 log = logging.getLogger(__name__)
 
-FloatArray = NDArray[np.float64]
-BoolArray = NDArray[np.bool_]
 GroundHeightFn = Callable[[FloatArray, FloatArray], FloatArray]
 """``(x_m, y_m) -> z_m``: ground height under world points, vectorised over equal shapes."""
-
-
-class Intrinsics(Protocol):
-    """Anything with pinhole intrinsics in pixels (e.g. :class:`CameraIntrinsics`)."""
-
-    @property
-    def fx(self) -> float: ...
-    @property
-    def fy(self) -> float: ...
-    @property
-    def cx(self) -> float: ...
-    @property
-    def cy(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -79,7 +67,7 @@ class Blob:
 
 
 def backproject(
-    depth_m: NDArray[np.floating], intrinsics: Intrinsics, T_world_camera: NDArray[np.floating], stride: int = 2
+    depth_m: NDArray[np.floating], intrinsics: CameraIntrinsics, T_world_camera: NDArray[np.floating], stride: int = 2
 ) -> FloatArray:
     """World points of every ``stride``-th pixel: (H, W) depth -> (ceil(H/s), ceil(W/s), 3) float64.
 
@@ -93,8 +81,7 @@ def backproject(
     h, w = d.shape
     u = np.arange(w, dtype=np.float64) * stride
     v = np.arange(h, dtype=np.float64) * stride
-    xn = (u - float(intrinsics.cx)) / float(intrinsics.fx)  # (W',)
-    yn = (v - float(intrinsics.cy)) / float(intrinsics.fy)  # (H',)
+    xn, yn = intrinsics.normalized(u, v)  # (W',), (H',)
     T = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)
     R, t = T[:3, :3], T[:3, 3]
     # p_world = R @ (d*xn, d*yn, d) + t = d * (xn*R[:,0] + yn*R[:,1] + R[:,2]) + t
@@ -143,7 +130,7 @@ def _label_edges(points: FloatArray, valid: BoolArray, gap_m: float) -> tuple[ND
 
 def find_blobs(
     depth_m: NDArray[np.floating],
-    intrinsics: Intrinsics,
+    intrinsics: CameraIntrinsics,
     T_world_camera: NDArray[np.floating],
     *,
     stride: int = 2,

@@ -10,9 +10,12 @@ validation instead of reaching a controller.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, FiniteFloat, NonNegativeInt
+from pydantic import Field, FiniteFloat, NonNegativeInt
+
+from .base import Strict
+from .camera import MAX_IMAGE_SIDE_PX, CameraIntrinsics
 
 SCHEMA_VERSION: Literal[1] = 1
 
@@ -22,6 +25,13 @@ PERSON_BUFFER_M = 3.0
 PERSON_Z_MIN_M = 3.0
 VEHICLE_BUFFER_M = 5.0
 VEHICLE_Z_MIN_M = 3.0
+#: Animals (the knowledge base's animal class: they move less predictably than people and
+#: ignore the drone) and static structures (buildings, sheds, trees: clearance for the airframe).
+ANIMAL_BUFFER_M = 4.0
+STATIC_BUFFER_M = 1.0
+#: The scored hard limit (DESIGN §8): never within this distance (m) of a person's body axis.
+#: Not a planning buffer: the semantic buffers above keep paths away; this one is a guarantee.
+PERSON_HARD_LIMIT_M = 1.0
 #: The most conservative class a planner assumes for an obstacle it has no spec for.
 CONSERVATIVE_BUFFER_M = 5.0
 CONSERVATIVE_Z_MIN_M = 5.0
@@ -36,12 +46,6 @@ def vec3(values: Iterable[float]) -> tuple[float, float, float]:
     """Three floats from any iterable (numpy arrays included)."""
     x, y, z = (float(v) for v in values)
     return (x, y, z)
-
-
-class Strict(BaseModel):
-    """Base for every model: unknown fields are errors, NaN/inf are rejected."""
-
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, frozen=False)
 
 
 class Envelope(Strict):
@@ -97,17 +101,6 @@ class ControlCommand(Envelope):
 # --------------------------------------------------------------------------- camera
 
 
-class CameraIntrinsics(Strict):
-    """Pinhole intrinsics in pixels for an image of ``width`` × ``height``."""
-
-    fx: Annotated[FiniteFloat, Field(gt=0)]
-    fy: Annotated[FiniteFloat, Field(gt=0)]
-    cx: FiniteFloat
-    cy: FiniteFloat
-    width: Annotated[int, Field(gt=0, le=8192)]
-    height: Annotated[int, Field(gt=0, le=8192)]
-
-
 class CameraFrameHeader(Envelope):
     """Typed header sent in front of the raw image bytes (see :mod:`.frames`).
 
@@ -115,8 +108,8 @@ class CameraFrameHeader(Envelope):
     (x right, y down, z forward) into the world.
     """
 
-    width: Annotated[int, Field(gt=0, le=8192)]
-    height: Annotated[int, Field(gt=0, le=8192)]
+    width: Annotated[int, Field(gt=0, le=MAX_IMAGE_SIDE_PX)]
+    height: Annotated[int, Field(gt=0, le=MAX_IMAGE_SIDE_PX)]
     rgb_encoding: Literal["rgb8"] = "rgb8"
     depth_encoding: Literal["32FC1"] | None = "32FC1"
     intrinsics: CameraIntrinsics
@@ -326,6 +319,9 @@ WorldName = Literal["open_field", "urban", "forest_edge"]
 #: conservative: geometry, every obstacle treated as a person; llm: LLM-MPC (no retrieval);
 #: llm-land: RAG (the paper's method)
 MethodName = Literal["reference", "baseline", "conservative", "llm", "llm-land"]
+#: every world and every method, in the order of their ``Literal`` (the one list of each)
+WORLD_NAMES: tuple[WorldName, ...] = get_args(WorldName)
+METHOD_NAMES: tuple[MethodName, ...] = get_args(MethodName)
 ClockMode = Literal["lockstep", "realtime"]
 #: where semantic specs come from: nowhere, the VLE → reasoner pipeline, or ground truth
 PerceptionSource = Literal["none", "pipeline", "oracle"]

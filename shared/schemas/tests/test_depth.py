@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas import CameraIntrinsics
 from llmland_schemas.depth import backproject, find_blobs, ground_mask
 
 log = logging.getLogger(__name__)
@@ -14,14 +14,9 @@ log = logging.getLogger(__name__)
 W = H = 384
 
 
-@dataclass(frozen=True)
-class K:
+def K() -> CameraIntrinsics:  # noqa: N802 (the camera matrix's name)
     """Pinhole intrinsics (pixels), 90° field of view."""
-
-    fx: float = W / 2
-    fy: float = H / 2
-    cx: float = (W - 1) / 2
-    cy: float = (H - 1) / 2
+    return CameraIntrinsics(fx=W / 2, fy=H / 2, cx=(W - 1) / 2, cy=(H - 1) / 2, width=W, height=H)
 
 
 def camera_pose(position_m: tuple[float, float, float], pitch_down_rad: float) -> np.ndarray:

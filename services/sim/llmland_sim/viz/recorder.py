@@ -14,10 +14,18 @@ from pathlib import Path
 
 import numpy as np
 import rerun as rr
-from llmland_schemas import GroundTruth, PlanSnapshot, SafetySpecMessage, SceneDescription, UnsafeBox, VehicleState
+from llmland_schemas import (
+    PERSON_HARD_LIMIT_M,
+    GroundTruth,
+    PlanSnapshot,
+    SafetySpecMessage,
+    SceneDescription,
+    UnsafeBox,
+    VehicleState,
+)
 from llmland_schemas.frames import CameraFrame
 
-from ..scoring import PERSON_BUFFER_M, distance_to_person
+from ..scoring import distance_to_person
 from . import paths
 from .blueprint import landing_blueprint, landing_eye
 from .corridors import corridor_edges
@@ -112,7 +120,7 @@ class SimRecorder:
             if self._drone_m is not None and self._people:
                 closest = min(distance_to_person(self._drone_m, base, h) for base, h in self._people.values())
                 self.rec.log(paths.PLOT_PERSON_CLOSEST, rr.Scalars(closest))
-                self.rec.log(paths.PLOT_PERSON_LIMIT, rr.Scalars(PERSON_BUFFER_M))
+                self.rec.log(paths.PLOT_PERSON_LIMIT, rr.Scalars(PERSON_HARD_LIMIT_M))
                 buffer = self._perceived.human_buffer_m()
                 if buffer is not None:
                     self.rec.log(paths.PLOT_PERSON_BUFFER, rr.Scalars(buffer))

@@ -13,12 +13,14 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from llmland_schemas import WORLD_NAMES
+from llmland_schemas.arrays import FloatArray, VecLike
 
 from . import shapes
 from .actors import LaneLoop, Pedestrian, Vehicle, WalkRegion, actor_rng
-from .geometry import FloatArray, Footprint, VecLike
+from .geometry import Footprint
 from .layout import OBSTACLE_GAP_M, PED_START_CLEARANCE_M, Layout
-from .model import WORLD_NAMES, WorldObject
+from .model import WorldObject
 
 logger = logging.getLogger(__name__)
 

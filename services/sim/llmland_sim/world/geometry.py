@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from llmland_schemas.arrays import FloatArray, VecLike
 
-FloatArray = NDArray[np.float64]
 #: A point / vector given as a sequence or a numpy array.
-VecLike = Sequence[float] | NDArray[np.float64]
 
 
 @dataclass(frozen=True)

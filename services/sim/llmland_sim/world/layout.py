@@ -15,9 +15,10 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
 from .actors import WalkRegion
-from .geometry import FloatArray, Footprint, footprint_distance
+from .geometry import Footprint, footprint_distance
 
 #: Guaranteed horizontal clearance (m) between the target and any static obstacle footprint.
 TARGET_CLEARANCE_M = 2.5

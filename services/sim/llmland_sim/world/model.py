@@ -3,17 +3,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import get_args
 
 import numpy as np
-from llmland_schemas.messages import WorldName
+from llmland_schemas.arrays import FloatArray
 
 from .actors import KinematicActor
-from .geometry import FloatArray, Footprint
+from .geometry import Footprint
 from .terrain import Terrain
 
-#: The worlds, in the order of their seed codes (one definition: the schemas' ``WorldName``).
-WORLD_NAMES: tuple[str, ...] = get_args(WorldName)
+#: Every object class a world holds (the ground-truth labels).
 OBJECT_CLASSES = ("person", "vehicle", "building", "tree", "bush", "shed", "rock", "pad")
 
 

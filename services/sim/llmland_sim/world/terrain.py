@@ -5,8 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
-from .geometry import FloatArray
+from llmland_schemas.arrays import FloatArray
 
 #: Gaussian mounds: how many (inclusive), centres within this fraction of the half-size,
 #: heights (m) and widths (m, 1 σ).

@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import logging
 
+from llmland_schemas import WORLD_NAMES
+
 from .builder import WorldBuilder
-from .model import WORLD_NAMES, World
+from .model import World
 from .recipes import RECIPES
 
 logger = logging.getLogger(__name__)

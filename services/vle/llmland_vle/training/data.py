@@ -22,12 +22,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from llmland_schemas import WORLD_NAMES
 from llmland_schemas.depth import find_blobs
 
 from ..captions import crop_caption, frame_caption, vehicle_noun
 from ..crops import crop_square, resize
 from ..matching import TruthItem, match_position
-from ..simrender import WORLD_NAMES, world_scene
+from ..simrender import world_scene
 from .poses import object_colour, sample_pose, surface_at
 
 log = logging.getLogger(__name__)

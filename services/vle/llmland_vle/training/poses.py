@@ -9,11 +9,10 @@ import math
 from typing import Any
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 from numpy.typing import NDArray
 
 from ..captions import colour_word
-
-FloatArray = NDArray[np.float64]
 
 #: The urban parking row around the target (mirrors the sim's layout constants: 6.5 spots
 #: of 2.7 m either side, 3 m half depth).

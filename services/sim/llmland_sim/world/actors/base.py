@@ -19,15 +19,13 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 import numpy as np
 import pybullet as p
-from numpy.typing import NDArray
+from llmland_schemas.arrays import FloatArray
 
-FloatArray = NDArray[np.float64]
 #: A point / vector given as a sequence or a numpy array.
-VecLike = Sequence[float] | NDArray[np.float64]
 #: Ground height ``z = f(x, y)`` in metres.
 GroundFn = Callable[[float, float], float]
 #: ``True`` when a person may stand at ``(x, y)`` (no static obstacle there).

@@ -6,8 +6,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
-from .base import FloatArray, GroundFn, KinematicActor, wrap_angle
+from .base import GroundFn, KinematicActor, wrap_angle
 
 VEH_SPEED_RANGE_MPS = (3.0, 8.0)
 

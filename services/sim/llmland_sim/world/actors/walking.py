@@ -8,8 +8,9 @@ from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray, VecLike
 
-from .base import FloatArray, FreeFn, GroundFn, KinematicActor, VecLike, wrap_angle
+from .base import FreeFn, GroundFn, KinematicActor, wrap_angle
 
 logger = logging.getLogger(__name__)
 

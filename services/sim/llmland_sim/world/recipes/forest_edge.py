@@ -12,10 +12,10 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
 from .. import shapes
 from ..builder import WorldBuilder
-from ..geometry import FloatArray
 from ..layout import PLACE_TRIES, Layout, draw_count, path_regions, pedestrian_count, sample_start
 from ..model import World
 from ..terrain import Terrain, terrain_heights

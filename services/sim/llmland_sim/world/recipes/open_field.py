@@ -6,10 +6,10 @@ Half the obstacles are drawn near the start→target flight path, the rest anywh
 from __future__ import annotations
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
 from .. import shapes
 from ..builder import WorldBuilder
-from ..geometry import FloatArray
 from ..layout import PLACE_TRIES, Layout, draw_count, path_regions, pedestrian_count, sample_start
 from ..model import World
 

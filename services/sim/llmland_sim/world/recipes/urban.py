@@ -13,11 +13,11 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from llmland_schemas.arrays import FloatArray
 
 from .. import shapes
 from ..actors import LaneLoop, WalkRegion
 from ..builder import VAN_PROB, WorldBuilder
-from ..geometry import FloatArray
 from ..layout import PLACE_TRIES, Layout, draw_count, path_regions, pedestrian_count, sample_start
 from ..model import World
 

@@ -9,8 +9,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from llmland_schemas.arrays import VecLike
 
-from .primitives import Rgba, Vec3, VecLike
+from .primitives import Rgba, Vec3
 
 SKIN: tuple[Vec3, ...] = (
     (0.96, 0.80, 0.69),

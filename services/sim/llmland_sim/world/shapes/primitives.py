@@ -13,15 +13,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
 import pybullet as p
-from numpy.typing import NDArray
+from llmland_schemas.arrays import VecLike
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 Rgba = tuple[float, float, float, float]
-#: A point / vector given as a sequence or a numpy array.
-VecLike = Sequence[float] | NDArray[np.float64]
 
 IDENTITY_QUAT: Quat = (0.0, 0.0, 0.0, 1.0)
 #: Most shapes pybullet accepts in one createVisualShapeArray / createCollisionShapeArray.

@@ -5,9 +5,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from llmland_schemas.arrays import VecLike
 
 from .colours import BUILDING, CAR, GLASS, HAIR, PANTS, SKIN, TYRE, jitter, pick, shade
-from .primitives import Y_AXIS_CYL, Part, Vec3, VecLike, box, capsule, create_compound, cylinder, quat_axis, sphere
+from .primitives import Y_AXIS_CYL, Part, Vec3, box, capsule, create_compound, cylinder, quat_axis, sphere
 
 #: Person height used by :func:`create_person` by default (m).
 PERSON_HEIGHT_M = 1.7

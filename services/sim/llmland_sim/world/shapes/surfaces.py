@@ -11,10 +11,11 @@ from collections.abc import Sequence
 
 import numpy as np
 import pybullet as p
+from llmland_schemas.arrays import VecLike
 from numpy.typing import NDArray
 
 from .colours import ASPHALT, PAD, SIDEWALK, WHITE, pick
-from .primitives import Rgba, VecLike, box, create_compound, cylinder
+from .primitives import Rgba, box, create_compound, cylinder
 from .textures import GRASS_TILE_M, create_textured_mesh_body, grass_image, solid_image
 
 # Heights of the flat ground decorations above the surface they lie on (m). Layers that

@@ -10,9 +10,8 @@ import zlib
 
 import numpy as np
 import pybullet as p
+from llmland_schemas.arrays import VecLike
 from numpy.typing import NDArray
-
-from .primitives import VecLike
 
 #: Size of one grass texture tile on the ground (m).
 GRASS_TILE_M = 4.0

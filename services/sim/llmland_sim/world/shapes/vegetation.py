@@ -6,9 +6,10 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from llmland_schemas.arrays import VecLike
 
 from .colours import BARK, jitter, shade
-from .primitives import Part, VecLike, create_compound, cylinder, sphere
+from .primitives import Part, create_compound, cylinder, sphere
 
 
 def create_tree(
