@@ -7,6 +7,14 @@ the new bounds and centroid; their horizontal velocity (m/s, z velocity is 0) is
 exponentially smoothed centroid difference over time. Unmatched blobs start new tracks
 ``"t0"``, ``"t1"``, …
 
+Rigid motion: the centroid of a *visible surface* moves when more or less of a still object
+comes into view (a parked car seen first by one corner, then whole), and that is not motion.
+A body that moves carries both of its visible edges along, so the tracker also keeps
+``rigid_velocity_mps``: per horizontal axis, the velocity both edges agree on — the smaller of
+the two edge velocities when they have the same sign, else 0 (the *minmod* of the two; LeVeque,
+*Finite Volume Methods for Hyperbolic Problems*, 2002, §6.11). It is what a motion test
+should read; ``velocity_mps`` (the centroid's) stays the conservative speed for prediction.
+
 Forgetting: a track that was not matched accumulates *missed time*, and is dropped once that
 exceeds ``forget_after_s``. When the camera looks away, obstacles leave the field of view but
 are still there, so ``update`` accepts ``visible_fn(point_m) -> bool`` (true when a world
@@ -50,6 +58,28 @@ GATE_MAX_M = 5.0
 GATE_HEIGHT_ALIKE_M = 0.4
 
 
+def _minmod(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Elementwise: the smaller magnitude of ``a`` and ``b`` where they share a sign, else 0."""
+    return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
+
+
+@dataclass(frozen=True)
+class _Seen:
+    """One camera's view of a track: centroid and visible-surface bounds (3,) each, m."""
+
+    centroid_m: FloatArray
+    lo_m: FloatArray
+    hi_m: FloatArray
+
+    @classmethod
+    def of(cls, blob: Blob) -> _Seen:
+        return cls(*(np.array(x, dtype=np.float64) for x in (blob.centroid_m, blob.lo_m, blob.hi_m)))
+
+    @classmethod
+    def of_track(cls, track: TrackedObstacle) -> _Seen:
+        return cls(track.centroid_m.copy(), track.lo_m.copy(), track.hi_m.copy())
+
+
 @dataclass
 class TrackedObstacle:
     """An obstacle followed over frames (world frame; metres, seconds, m/s).
@@ -79,6 +109,8 @@ class TrackedObstacle:
     has_moved: bool = False
     #: the semantic spec attached to it (by the world model), if any
     spec: AttachedSpec | None = None
+    #: (3,) horizontal velocity (m/s) both visible edges agree on (see the module docstring)
+    rigid_velocity_mps: FloatArray = field(default_factory=lambda: np.zeros(3))
 
 
 class ObstacleTracker:
@@ -114,8 +146,9 @@ class ObstacleTracker:
         self.gate_max_m = gate_max_m
         self._tracks: list[TrackedObstacle] = []
         self._raw_velocity: dict[str, FloatArray] = {}
-        #: (track id, camera) → that camera's last centroid of the track and its stamp
-        self._last_by_source: dict[tuple[str, str], tuple[FloatArray, float]] = {}
+        self._raw_rigid_velocity: dict[str, FloatArray] = {}
+        #: (track id, camera) → that camera's last observation of the track and its stamp
+        self._last_by_source: dict[tuple[str, str], tuple[_Seen, float]] = {}
         self._next_id = 0
         self._last_update_s: float | None = None
 
@@ -152,6 +185,7 @@ class ObstacleTracker:
                 if track.missed_s > self.forget_after_s or too_long:
                     log.debug("forgetting track %s (missed %.2f s)", track.track_id, track.missed_s)
                     self._raw_velocity.pop(track.track_id, None)
+                    self._raw_rigid_velocity.pop(track.track_id, None)
                     for key in [k for k in self._last_by_source if k[0] == track.track_id]:
                         del self._last_by_source[key]
                     continue
@@ -189,22 +223,23 @@ class ObstacleTracker:
             origin_m=np.array(blob.centroid_m, dtype=np.float64),
             touches_top=blob.touches_top and source != "down",
         )
-        self._last_by_source[(track.track_id, source)] = (track.centroid_m.copy(), stamp_s)
+        self._last_by_source[(track.track_id, source)] = (_Seen.of(blob), stamp_s)
         self._next_id += 1
         return track
 
     def _correct(self, track: TrackedObstacle, blob: Blob, stamp_s: float, source: str = "") -> None:
         """Fold a matched blob into ``track``: smoothed horizontal velocity, latest bounds."""
         centroid = np.array(blob.centroid_m, dtype=np.float64)
-        prev_c, prev_t = self._last_by_source.get((track.track_id, source), (track.centroid_m, track.last_seen_s))
-        self._last_by_source[(track.track_id, source)] = (centroid.copy(), stamp_s)
+        seen = _Seen.of(blob)
+        prev, prev_t = self._last_by_source.get((track.track_id, source), (_Seen.of_track(track), track.last_seen_s))
+        self._last_by_source[(track.track_id, source)] = (seen, stamp_s)
         dt = stamp_s - prev_t
         if dt > 1e-6:
-            sample = np.zeros(3)
-            sample[:2] = (centroid[:2] - prev_c[:2]) / dt
-            prev = self._raw_velocity.get(track.track_id)
-            a = self.velocity_alpha
-            self._raw_velocity[track.track_id] = sample if prev is None else a * sample + (1.0 - a) * prev
+            sample, rigid = np.zeros(3), np.zeros(3)
+            sample[:2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
+            rigid[:2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
+            self._raw_velocity[track.track_id] = self._smooth(self._raw_velocity.get(track.track_id), sample)
+            self._raw_rigid_velocity[track.track_id] = self._smooth(self._raw_rigid_velocity.get(track.track_id), rigid)
         track.hits += 1
         if source != "down":  # a downward view sees tops; a side view may cut them off
             track.touches_top = blob.touches_top
@@ -215,6 +250,12 @@ class ObstacleTracker:
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps = self._raw_velocity[track.track_id].copy()
+            track.rigid_velocity_mps = self._raw_rigid_velocity[track.track_id].copy()
+
+    def _smooth(self, previous: FloatArray | None, sample: FloatArray) -> FloatArray:
+        """Exponential smoothing with weight ``velocity_alpha`` on the newest sample."""
+        a = self.velocity_alpha
+        return sample if previous is None else a * sample + (1.0 - a) * previous
 
     def predict(self, track: TrackedObstacle, t_s: float) -> FloatArray:
         """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""
@@ -238,6 +279,7 @@ class ObstacleTracker:
                     lo_m=t.lo_m + shift,
                     hi_m=t.hi_m + shift,
                     velocity_mps=t.velocity_mps.copy(),
+                    rigid_velocity_mps=t.rigid_velocity_mps.copy(),
                     meta=dict(t.meta),
                 )
             )

@@ -217,12 +217,13 @@ class WorldModel:
         return spec
 
     def _moving(self, tr: TrackedObstacle) -> bool:
-        # Moving = fast enough now AND displaced from where it was first seen: a static object
-        # seen from new angles shifts its visible centroid, but not by metres.
+        # Moving = its visible edges move together fast enough now AND it is displaced from where
+        # it was first seen: a static object seen from new angles shifts its visible centroid
+        # (one edge at a time, as more or less of it comes into view), but not by metres.
         s = self.settings
         origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
         displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
-        return displaced and float(np.linalg.norm(tr.velocity_mps[:2])) > s.moving_speed_mps
+        return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
 
     def _person_sized(self, tr: TrackedObstacle) -> bool:
         s = self.settings

@@ -134,3 +134,30 @@ def test_unseen_walker_is_forgotten_where_it_was_predicted() -> None:
         t += DT_S
         tracks = tracker.update([], t, visible_fn=in_view)
     assert tracks == []
+
+
+def _box(lo_xy: tuple[float, float], hi_xy: tuple[float, float], height_m: float = 1.5) -> Blob:
+    lo, hi = np.array([*lo_xy, 0.0]), np.array([*hi_xy, height_m])
+    return Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo,
+                n_points=100, bbox_px=(0, 0, 10, 10), footprint_radius_m=float(np.hypot(*(hi - lo)[:2]) / 2))
+
+
+def test_a_still_object_coming_into_view_has_no_rigid_motion() -> None:
+    # a parked car 4.5 m long seen first by its near end, then more of it each frame: its
+    # visible centroid runs at 1.5 m/s along y, its near edge does not move
+    tracker = ObstacleTracker()
+    for k in range(6):
+        (t,) = tracker.update([_box((7.0, -2.0), (8.5, -2.0 + 0.6 * (k + 1)))], k * DT_S)
+    assert t.velocity_mps[1] > 1.0  # the centroid says it drives
+    np.testing.assert_allclose(t.rigid_velocity_mps, 0.0)  # its edges say it does not
+
+
+def test_a_moving_object_has_the_rigid_motion_of_its_edges() -> None:
+    rng = np.random.default_rng(1)
+    tracker = ObstacleTracker()
+    for k in range(8):
+        x = 2.0 + 1.2 * k * DT_S
+        grow = rng.uniform(0.0, 0.1)  # its visible size flickers a little
+        (t,) = tracker.update([_box((x, 0.0), (x + 0.5 + grow, 0.5))], k * DT_S)
+    assert abs(t.rigid_velocity_mps[0] - 1.2) < 0.3 and abs(t.rigid_velocity_mps[1]) < 1e-9
+    assert t.rigid_velocity_mps[2] == 0.0

@@ -159,3 +159,19 @@ def test_a_mover_the_spec_calls_static_without_saying_human_is_a_possible_person
         t, x = t + 0.5, x + 0.6
     assert wm.spec_for(wm.tracker.tracks()[0], t - 0.5).is_human is None
     assert len(wm.people(t - 0.5)) == 1
+
+
+def test_a_parked_car_coming_into_view_is_not_swept() -> None:
+    # Seen from a drone descending near it, a parked car's visible bounds grow along its length:
+    # its centroid is displaced by metres at > 1 m/s, but its edges do not move together.
+    for method in ("llm-land", "baseline"):
+        wm = WorldModel(PlannerSettings(), method)
+        for k in range(8):
+            lo, hi = np.array([7.0, -2.0, 0.0]), np.array([8.6, -1.5 + 0.5 * k, 1.5])
+            wm.tracker.update([Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi,
+                                    size_m=hi - lo, n_points=100, bbox_px=(0, 0, 10, 10),
+                                    footprint_radius_m=1.0)], 0.2 * k)
+        (tr,) = wm.tracker.tracks()
+        assert np.linalg.norm(tr.centroid_m[:2] - tr.origin_m[:2]) > PlannerSettings().moving_displacement_m
+        assert not wm.view(tr, 1.4).moving, method
+        assert len(_regions(wm, 1.4)) == 1, method  # one box: not swept along a motion
