@@ -36,6 +36,9 @@ from llmland_schemas.frames import peek_header
 
 log = logging.getLogger(__name__)
 
+#: Frames kept while their episode's mission or truth has not arrived (the newest ones).
+MAX_WAITING = 8
+
 
 def _spec(label: str, dynamic: bool, z_min: float, buffer_m: float) -> SafetySpec:
     return SafetySpec(is_dynamic=dynamic, is_human=label == "person", z_min=z_min, buffer_m=buffer_m, label=label,
@@ -66,6 +69,9 @@ class OracleSpecPublisher:
         self.published = 0
         self._spec_key = key(drone_id, Topic.SPEC)
         self._truth: dict[str, GroundTruth] = {}
+        #: frames that came before their episode's mission or truth (callbacks of different
+        #: subscriptions are not ordered): answered as soon as both are known
+        self._waiting: list[CameraFrameHeader] = []
         bus.subscribe(key(drone_id, Topic.MISSION), MissionGoal, self._on_mission)
         bus.subscribe(key(drone_id, Topic.TRUTH), GroundTruth, self._on_truth)
         bus.subscribe_parsed(key(drone_id, Topic.CAMERA), peek_header, self._on_frame)
@@ -75,15 +81,32 @@ class OracleSpecPublisher:
         table.update({g.cls: g.spec for g in m.given_specs})
         with self._lock:
             self._table[m.episode_id] = table
+        self._answer_waiting()
 
     def _on_truth(self, _k: str, truth: GroundTruth) -> None:
-        with self._lock:
-            if truth.episode_id in self._table:
-                self._truth = {truth.episode_id: truth}
+        with self._lock:  # the newest truth (it may come before its episode's mission)
+            self._truth = {truth.episode_id: truth}
+        self._answer_waiting()
 
     def _on_frame(self, _k: str, header: CameraFrameHeader) -> None:
         if not header.perceive:
             return
+        with self._lock:
+            known = header.episode_id in self._table and header.episode_id in self._truth
+            if not known:  # its mission or first truth is still on its way: answer it then
+                self._waiting = [h for h in self._waiting if h.episode_id == header.episode_id][-MAX_WAITING:]
+                self._waiting.append(header)
+                return
+        self._answer(header)
+
+    def _answer_waiting(self) -> None:
+        with self._lock:
+            ready = [h for h in self._waiting if h.episode_id in self._table and h.episode_id in self._truth]
+            self._waiting = [h for h in self._waiting if h not in ready]
+        for header in ready:
+            self._answer(header)
+
+    def _answer(self, header: CameraFrameHeader) -> None:
         with self._lock:
             table = self._table.get(header.episode_id)
             truth = self._truth.get(header.episode_id)
