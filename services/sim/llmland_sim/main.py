@@ -22,7 +22,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
 from llmland_schemas import (
     ControlCommand,
     MissionGoal,
@@ -63,10 +62,11 @@ class SimService:
         self.recorder: SimRecorder | None = None
         self.current: MissionGoal | None = None
         self.clock: PerceptionClock | None = None
-        self.spec_latencies_ms: list[float] = []
-        self.fallback_specs = 0
         self.walls = WallTimes()
         self._planner_ok = True
+        #: the newest frames' seqs (lockstep: the state names the frames of its tick)
+        self._camera_seq: int | None = None
+        self._down_seq: int | None = None
         d = settings.drone_id
         self.k = {t: key(d, t) for t in Topic}
         bus.subscribe(self.k[Topic.MISSION], MissionGoal, self._on_mission)
@@ -86,9 +86,9 @@ class SimService:
         self.missions.put(msg)
 
     def _on_spec(self, _key: str, msg: SafetySpecMessage) -> None:
-        if self.current is not None and msg.episode_id == self.current.episode_id:
-            self.spec_latencies_ms.append(msg.latency_ms)
-            self.fallback_specs += sum(o.spec.source == "fallback" for o in msg.objects)
+        score = self.sim.score
+        if self.current is not None and msg.episode_id == self.current.episode_id and score is not None:
+            score.observe_spec(msg)
             clock = self.clock
             if clock is not None:
                 clock.on_spec(msg.frame_seq, msg.latency_ms, self.sim.t_s)
@@ -116,13 +116,27 @@ class SimService:
 
     def run_episode(self, mission: MissionGoal) -> None:
         """Fly one mission to its end; publishes its EpisodeResult."""
-        s, sim, bus = self.settings, self.sim, self.bus
+        mission = self._begin(mission)
+        due = Schedule(self.settings.camera_hz, self.settings.truth_hz, self.settings.down_camera_hz)
+        wall0 = time.perf_counter()
+        while not self.sim.done and not self.stop.is_set():
+            self._publish_due(due, mission)
+            state = self._publish_state(mission)
+            cmd = self._await_command(mission, wall0)
+            self._record_tick(state, cmd)
+            with self.walls.time("physics"):
+                self.sim.apply_command(cmd)
+                self.sim.step()
+        self._finish(mission)
+
+    def _begin(self, mission: MissionGoal) -> MissionGoal:
+        """Build the world, announce the resolved mission, set up the clock and the recorder."""
+        s, sim = self.settings, self.sim
         self.commands.clear()
-        self.spec_latencies_ms = []
-        self.fallback_specs = 0
         sim.reset(mission)
         self.walls = WallTimes()
         self._planner_ok = True
+        self._camera_seq = self._down_seq = None
         assert sim.world is not None
         # Tell everyone the resolved mission (start and target filled from the world).
         mission = mission.model_copy(update={
@@ -134,42 +148,35 @@ class SimService:
         self.clock = (PerceptionClock(LatencyModel.parse(mission.latency_model), mission.seed, s.perception_timeout_s)
                       if lockstep and mission.perception != "none" else None)
         self.current = mission
-        bus.publish(self.k[Topic.MISSION], mission)
+        self.bus.publish(self.k[Topic.MISSION], mission)
         rrd = mission.rrd_path or s.rrd
         if rrd is not None or s.rerun_connect:
             self.recorder = SimRecorder(mission.episode_id, rrd=Path(rrd) if rrd else None,
                                         connect_url=s.rerun_connect)
-        due = Schedule(s.camera_hz, s.truth_hz, s.down_camera_hz)
-        solve_ms: list[float] = []
-        wall0 = time.perf_counter()
-        camera_seq: int | None = None
-        down_seq: int | None = None
-        while not sim.done and not self.stop.is_set():
-            if due.truth(sim.t_s):
-                self._publish_truth()
-            if self.clock is not None:  # latency-faithful perception (DESIGN §4)
-                with self.walls.time("perception_wait"):
-                    self.clock.wait_before(sim.t_s, self.stop)
-            if due.camera(sim.t_s):
-                with self.walls.time("camera"):
-                    camera_seq = self._publish_frame(mission)
-            if due.down_camera(sim.t_s):
-                with self.walls.time("camera"):
-                    down_seq = self._publish_down_frame()
-            state = self._publish_state(mission, camera_seq, down_seq)
-            cmd = self._await_command(mission, wall0)
-            if self.recorder:  # once the planner has answered: recording never competes with its tick
-                self.recorder.state(state)
-            if cmd is not None and cmd.tick_ms is not None and cmd.tick_ms > 1e3 / s.ctrl_hz:
-                sim.deadline_misses += 1  # the controller overran its control period
-            if cmd is not None and cmd.solve_ms is not None:
-                solve_ms.append(cmd.solve_ms)
-                if self.recorder:
-                    self.recorder.mpc_solve(sim.t_s, cmd.solve_ms)
-            with self.walls.time("physics"):
-                sim.apply_command(cmd)
-                sim.step()
-        self._finish(mission, solve_ms)
+        return mission
+
+    def _publish_due(self, due: Schedule, mission: MissionGoal) -> None:
+        """What is due before this tick's state: truth, the perception wait (lockstep), frames."""
+        t_s = self.sim.t_s
+        if due.truth(t_s):
+            self._publish_truth()
+        if self.clock is not None:  # latency-faithful perception (DESIGN §4)
+            with self.walls.time("perception_wait"):
+                self.clock.wait_before(t_s, self.stop)
+        if due.camera(t_s):
+            with self.walls.time("camera"):
+                self._camera_seq = self._publish_frame(mission)
+        if due.down_camera(t_s):
+            with self.walls.time("camera"):
+                self._down_seq = self._publish_down_frame()
+
+    def _record_tick(self, state: VehicleState, cmd: ControlCommand | None) -> None:
+        """To Rerun, once the planner has answered: recording never competes with its tick."""
+        if self.recorder is None:
+            return
+        self.recorder.state(state)
+        if cmd is not None and cmd.solve_ms is not None:
+            self.recorder.mpc_solve(self.sim.t_s, cmd.solve_ms)
 
     def _publish_truth(self) -> None:
         truth = self.sim.truth()
@@ -199,13 +206,14 @@ class SimService:
             self.recorder.camera_down(frame)
         return frame.header.seq
 
-    def _publish_state(self, mission: MissionGoal, camera_seq: int | None, down_seq: int | None) -> VehicleState:
+    def _publish_state(self, mission: MissionGoal) -> VehicleState:
         """This tick's state, with the frames and specs in effect at this tick (lockstep)."""
         sim = self.sim
         released = self.clock.released_upto_s(sim.t_s) if self.clock is not None else None
         lockstep = mission.clock == "lockstep"
-        state = sim.vehicle_state(camera_seq=camera_seq if lockstep else None,
-                                  down_camera_seq=down_seq if lockstep else None, specs_released_upto_s=released)
+        state = sim.vehicle_state(camera_seq=self._camera_seq if lockstep else None,
+                                  down_camera_seq=self._down_seq if lockstep else None,
+                                  specs_released_upto_s=released)
         self.bus.publish(self.k[Topic.STATE], state, express=True)
         return state
 
@@ -221,31 +229,17 @@ class SimService:
         with self.walls.time("planner_wait"):
             cmd = self.commands.wait_for(sim.seq, timeout)
         self._planner_ok = cmd is not None
-        if cmd is None:
-            sim.deadline_misses += 1
+        if cmd is None and sim.score is not None:
+            sim.score.observe_deadline_miss()
         return cmd
 
-    def _finish(self, mission: MissionGoal, solve_ms: list[float]) -> None:
-        sim = self.sim
-        result = sim.result(mpc_solve_ms=solve_ms)
-        result.latency_model = mission.latency_model if mission.perception != "none" else ""
-        result.fallback_specs = self.fallback_specs
-        clock = self.clock
+    def _finish(self, mission: MissionGoal) -> None:
+        sim, clock, rec = self.sim, self.clock, self.recorder
         if clock is not None:
             clock.finish(sim.t_s)
-            result.perception_requests = clock.requests
-            result.perception_lost = clock.lost
-            result.perception_degraded = clock.ever_degraded
-            result.perception_degraded_s = round(clock.degraded_s, 3)
-            if clock.effective_latency_ms:
-                result.spec_latency_ms_mean = float(np.mean(clock.effective_latency_ms))
-                result.spec_compute_ms_mean = float(np.mean(clock.compute_ms))
-        elif self.spec_latencies_ms:  # realtime: what the producers reported
-            result.spec_latency_ms_mean = float(np.mean(self.spec_latencies_ms))
-            result.spec_compute_ms_mean = result.spec_latency_ms_mean
-        if self.recorder:
-            self.recorder.close()
-            result.rrd_path = str(self.recorder.path) if self.recorder.path else None
+        result = sim.result(perception=clock, rrd_path=str(rec.path) if rec is not None and rec.path else None)
+        if rec is not None:
+            rec.close()
             self.recorder = None
         self.bus.publish(self.k[Topic.RESULT], result)
         log.info("episode %s: %s (success=%s, %.1f s sim in %.1f s wall, %d deadline misses, %d perception requests)",

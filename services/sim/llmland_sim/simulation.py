@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pybullet as p
@@ -25,21 +26,17 @@ from llmland_schemas import (
 )
 
 from .camera import RgbdCamera, release_renderer
-from .scoring import EpisodeScore
+from .scoring import TOUCHDOWN_HEIGHT_M, EpisodeScore
 from .settings import SimSettings
 from .vehicle import DEFAULT_PARAMS, QuadParams, Quadrotor, ReferencePositionController
 from .world import World, WorldObject, build_world
 from .world.scenarios import Scenario
 
+if TYPE_CHECKING:
+    from .perception_clock import PerceptionClock
+
 log = logging.getLogger(__name__)
 
-#: Touchdown: this close to the ground (m, vehicle centre) and this slow (m/s) ...
-TOUCHDOWN_HEIGHT_M = 0.15
-TOUCHDOWN_SPEED_MPS = 0.35
-#: ... for this long (s) counts as landed.
-TOUCHDOWN_DWELL_S = 0.3
-#: Hitting the ground faster than this (m/s) is a crash.
-CRASH_SPEED_MPS = 2.5
 #: The downward camera looks straight down (optical axis = body -z) from just under the
 #: body, so neither the body nor the arms are in view.
 DOWN_CAMERA_PITCH_DEG = 90.0
@@ -66,9 +63,6 @@ class Simulation:
         self._last_cmd_t = 0.0
         self.t_s = 0.0
         self.seq = 0
-        self.deadline_misses = 0
-        self.commands_missing = 0
-        self._landed_since: float | None = None
         self._wall_start = 0.0
         self.done = False
         self._ended_by_stop = False
@@ -103,9 +97,6 @@ class Simulation:
         self._last_cmd_t = 0.0
         self.t_s = 0.0
         self.seq = 0
-        self.deadline_misses = 0
-        self.commands_missing = 0
-        self._landed_since = None
         self._wall_start = time.perf_counter()
         self.done = False
         self._ended_by_stop = False
@@ -124,13 +115,13 @@ class Simulation:
         A missing command holds the previous one for ``command_hold_s``; after that the
         vehicle-side failsafe holds position where commands were lost.
         """
-        assert self.quad is not None
+        assert self.quad is not None and self.score is not None
+        self.score.observe_command(cmd, 1e3 / self.settings.ctrl_hz)
         if cmd is not None:
             self._last_cmd, self._last_cmd_t = cmd, self.t_s
             self._hold_target = None
             self.quad.set_command(np.asarray(cmd.body_rates_rps), cmd.thrust_n)
             return False
-        self.commands_missing += 1
         if self._last_cmd is not None and self.t_s - self._last_cmd_t <= self.settings.command_hold_s:
             return False
         st = self.quad.state()
@@ -172,19 +163,9 @@ class Simulation:
             else:
                 self.score.observe_collision(obj_id or f"body_{other}")
         speed = float(np.linalg.norm(st.vel_mps))
-        height = st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1])
-        if ground_contact and speed > CRASH_SPEED_MPS:
-            self.score.observe_collision("ground")
-        low_and_slow = (ground_contact or height < TOUCHDOWN_HEIGHT_M) and speed < TOUCHDOWN_SPEED_MPS
-        if low_and_slow and height < TOUCHDOWN_HEIGHT_M + 0.1:
-            if self._landed_since is None:
-                self._landed_since = self.t_s
-            elif self.t_s - self._landed_since >= TOUCHDOWN_DWELL_S:
-                self.score.observe_touchdown(st.pos_m, self._landed_since)
-                self.done = True
-        else:
-            self._landed_since = None
-        if self.score.collisions:
+        height = float(st.pos_m[2] - self.world.ground_height(st.pos_m[0], st.pos_m[1]))
+        self.score.observe_ground(self.t_s, st.pos_m, speed, height, ground_contact)
+        if self.score.finished:
             self.done = True
 
     @staticmethod
@@ -270,35 +251,16 @@ class Simulation:
             episode_id=self.mission.episode_id,
         )
 
-    def result(self, *, mpc_solve_ms: list[float] | None = None) -> EpisodeResult:
+    def result(self, *, perception: PerceptionClock | None = None, rrd_path: str | None = None) -> EpisodeResult:
+        """The episode's scored result (see :meth:`.scoring.EpisodeScore.result`)."""
         assert self.score is not None and self.mission is not None
-        success, outcome = self.score.outcome(aborted=self._ended_by_stop)
-        td = self.score.touchdown_m
-        solve = np.asarray(mpc_solve_ms or [], dtype=float)
-        return EpisodeResult(
-            drone_id=self.settings.drone_id,
-            stamp=self.t_s,
-            seq=self.seq,
-            episode_id=self.mission.episode_id,
-            world=self.mission.world,
-            seed=self.mission.seed,
-            method=self.mission.method,
-            clock=self.mission.clock,
-            success=success,
-            outcome=outcome,  # type: ignore[arg-type]
-            touchdown_m=vec3(td) if td is not None else None,
-            touchdown_error_m=self.score.touchdown_error_m,
-            time_to_land_s=self.score.touchdown_t_s,
-            min_person_distance_m={k: round(v, 4) for k, v in self.score.min_person_distance_m.items()},
-            close_calls=len(self.score.close_call_people),
-            collisions=list(self.score.collisions),
-            sim_time_s=self.t_s,
-            wall_time_s=time.perf_counter() - self._wall_start,
-            control_ticks=self.seq,
-            deadline_misses=self.deadline_misses,
-            commands_missing=self.commands_missing,
-            mpc_solve_ms_p50=float(np.percentile(solve, 50)) if solve.size else None,
-            mpc_solve_ms_p95=float(np.percentile(solve, 95)) if solve.size else None,
+        m = self.mission
+        return self.score.result(
+            aborted=self._ended_by_stop, perception=perception,
+            drone_id=self.settings.drone_id, stamp=self.t_s, seq=self.seq, episode_id=m.episode_id, world=m.world,
+            seed=m.seed, method=m.method, clock=m.clock, sim_time_s=self.t_s,
+            wall_time_s=time.perf_counter() - self._wall_start, control_ticks=self.seq,
+            latency_model=m.latency_model if m.perception != "none" else "", rrd_path=rrd_path,
         )
 
     def close(self) -> None:
