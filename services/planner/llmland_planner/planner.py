@@ -3,14 +3,8 @@
 ``tick(state)`` runs once per control tick: unsafe regions → landing phase → reference
 (a searched path, or a straight descent) → corridors → one MPC QP → body rates + thrust.
 
-Path search runs on a worker thread so a slow search never blocks the control loop. When
-its plan is adopted depends on the mission's clock:
-
-- ``realtime``: the search is bounded by ``search_budget_s`` of wall time and its plan is
-  adopted once the sim clock has advanced by the search's measured wall time;
-- ``lockstep``: the search is bounded by ``search_max_expansions`` (not wall time) and its
-  plan is adopted exactly ``search_budget_s`` of sim time after it started (the tick waits
-  for the worker if it is late), so a seeded episode flies the same way on any machine.
+Path search, plan adoption and path following are :mod:`.replanning`'s; the descent and
+climb-out fly a vertical reference of :mod:`.descent`.
 """
 
 from __future__ import annotations
@@ -19,7 +13,7 @@ import logging
 import math
 import threading
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 from llmland_schemas import (
@@ -31,22 +25,18 @@ from llmland_schemas import (
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.frames import CameraFrame
 
-from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .dynamics import ModelParams
 from .hard_limit import REACH_CEILING_M, coverage_radius_m
 from .landing import LandingLogic, Phase, Surroundings
 from .mpc import MpcController, MpcResult
-from .path import Path, resample
-from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
-from .search import SearchConfig, plan
+from .regions import UnsafeRegion
+from .replanning import CORRIDOR_EXIT_M, Replanner
 from .settings import PlannerSettings
 from .snapshots import plan_snapshot
 from .world_model import WorldModel
 
 log = logging.getLogger(__name__)
 
-#: Farther than this (m) outside the current corridor, its rows are dropped and we replan.
-CORRIDOR_EXIT_M = 0.3
 #: The MPC's soft floor sits this far (m) below the target: the ground, not the goal.
 GROUND_FLOOR_MARGIN_M = 0.2
 #: A plan snapshot (for displays) goes out at least this often (s) and on every phase change.
@@ -61,36 +51,6 @@ DOWN_FRAME_FRESH_S = 0.5
 YAW_ATTENTION_M = 12.0
 #: Approaching: face the goal while it is farther than this (m).
 YAW_ALONG_PATH_MIN_M = 1.0
-#: a failed search doubles the next one's budget, at most this many times in a row (×16)
-SEARCH_BUDGET_DOUBLINGS = 4
-#: The search's workspace spans ± this (m) horizontally (up to ``max_altitude_m``).
-WORKSPACE_HALF_XY_M = 100.0
-#: A goal that moved farther than this (m) from the active plan's is replanned for.
-GOAL_MOVED_REPLAN_M = 0.3
-#: Inside a region at the start, the start clearance reaches this far (m) beyond its depth.
-START_CLEARANCE_MARGIN_M = 0.3
-#: The nearest path point is looked for among this many points past the last progress.
-PROGRESS_WINDOW_POINTS = 40
-
-
-@dataclass
-class ActivePlan:
-    path: Path
-    corridors: list[Corridor]
-    goal_m: FloatArray
-    made_at_s: float
-    search_ms: float
-    progress_idx: int = 0
-
-
-@dataclass
-class _Job:
-    t0_s: float
-    goal_m: FloatArray
-    wall_s: float = 0.0
-    result: ActivePlan | None = None
-    failed: bool = False
-    done: threading.Event = field(default_factory=threading.Event)
 
 
 @dataclass
@@ -110,19 +70,12 @@ class Planner:
         self.settings = s = settings or PlannerSettings()
         self.params = params or ModelParams()
         self.mpc = MpcController(self.params, horizon=s.horizon, dt=s.mpc_dt_s, max_halfspaces=s.max_halfspaces)
-        workspace_hi = (WORKSPACE_HALF_XY_M, WORKSPACE_HALF_XY_M, s.max_altitude_m)
-        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
+        self.paths = Replanner(s)
         self._lock = threading.Lock()
         self.mission: MissionGoal | None = None
         self.world: WorldModel | None = None
         self.landing: LandingLogic | None = None
-        self.active: ActivePlan | None = None
-        self._job: _Job | None = None
-        self._last_replan_s = -1e9
         self._yaw_ref = 0.0
-        self.failed_searches = 0
-        self._failed_in_row = 0
-        self._force_replan = False
         self._last_t = 0.0
         self._logged_phase: Phase | None = None
         self._logged_t = -1e9
@@ -138,16 +91,9 @@ class Planner:
         assert mission.target_m is not None and mission.start_m is not None
         with self._lock:
             self.mission = mission
-            if self._lockstep:
-                self.search_cfg = replace(self.search_cfg, time_budget_s=float("inf"),
-                                          max_expansions=self.settings.search_max_expansions)
-            else:
-                self.search_cfg = replace(self.search_cfg, time_budget_s=self.settings.search_budget_s,
-                                          max_expansions=SearchConfig.max_expansions)
+            self.paths.start(self._lockstep)
             self.world = WorldModel(self.settings, mission.method, np.asarray(mission.target_m, dtype=float))
             self.landing = LandingLogic(np.asarray(mission.target_m, dtype=float), self.settings)
-            self.active, self._job = None, None
-            self._last_replan_s = -1e9
             self._last_t = 0.0
             self._logged_phase, self._logged_t = None, -1e9
             self._snap_phase, self._snap_t = None, -1e9
@@ -196,10 +142,11 @@ class Planner:
         halfspaces = None
         if phase in (Phase.DESCEND, Phase.CLIMB_OUT, Phase.TOUCHDOWN):
             ref_pos, ref_vel = self._vertical_reference(phase, pos, vel, goal)
-            self.active = None
+            self.paths.active = None
         else:
-            snapshot = self._maybe_replan(t, pos, vel, goal, regions)
-            ref_pos, ref_vel, halfspaces = self._reference(pos, goal)
+            if self.paths.maybe_replan(t, pos, vel, goal, regions, self._reach_floor(pos)):
+                snapshot = self._snapshot(t, regions, None)
+            ref_pos, ref_vel, halfspaces = self.paths.reference(pos)
         if snapshot is None and (phase != self._snap_phase or t - self._snap_t >= SNAPSHOT_PERIOD_S):
             snapshot = self._snapshot(t, regions, around)
         if snapshot is not None:
@@ -217,7 +164,7 @@ class Planner:
         if halfspaces is not None and (not res.ok or res.max_slack > CORRIDOR_EXIT_M):
             # The corridors no longer fit the vehicle's state: an RTI step leaning on large
             # slacks is unreliable. Track the path without them and replan at once.
-            self._force_replan = True
+            self.paths.force_replan = True
             res = self.mpc.solve(x0, ref_pos, ref_vel, yaw_ref, None, z_floor_m=z_floor)
         mode = phase.value if res.ok else "fallback"
         return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
@@ -294,113 +241,8 @@ class Planner:
         err = math.remainder(heading - self._yaw_ref, 2.0 * math.pi)
         self._yaw_ref += float(np.clip(err, -max_step, max_step))
 
-    # ------------------------------------------------------------------ search
-    def _maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
-                      regions: list[UnsafeRegion]) -> PlanSnapshot | None:
-        snapshot = None
-        job = self._job
-        if job is None:
-            due = False
-        elif self._lockstep:
-            due = t >= job.t0_s + self.settings.search_budget_s - 1e-9
-            if due:
-                job.done.wait()  # a fixed adoption time; the worker is normally done by now
-        else:
-            due = job.done.is_set() and t >= job.t0_s + job.wall_s
-        if job is not None and due:
-            self._job = None
-            if job.result is not None:
-                self._failed_in_row = 0
-                self.active = job.result
-                snapshot = self._snapshot(t, regions, None)
-            else:
-                self.failed_searches += 1
-                self._failed_in_row += 1
-                if self.active is not None and self._path_blocked(self.active.path, regions):
-                    self.active = None  # never keep following a path into a region: hold instead
-        need = (
-            self._force_replan
-            or self.active is None
-            or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
-            or t - self._last_replan_s >= self.settings.replan_period_s
-            or self._path_blocked(self.active.path, regions)
-        )
-        # at the full budget, failures are retried once per replan period, not back to back
-        # (each costs ~16× a search: in lockstep the sim waits for it)
-        backing_off = (self._failed_in_row > SEARCH_BUDGET_DOUBLINGS and not self._force_replan
-                       and t - self._last_replan_s < self.settings.replan_period_s)
-        if need and self._job is None and not backing_off:
-            self._force_replan = False
-            self._last_replan_s = t
-            self._job = _Job(t0_s=t, goal_m=goal.copy())
-            threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions),
-                                                        self._search_budget_scale()), daemon=True).start()
-        return snapshot
-
-    def _search_budget_scale(self) -> int:
-        """Budget multiplier after failed searches in a row: 2^k, k ≤ ``SEARCH_BUDGET_DOUBLINGS``.
-
-        A way around a wide obstacle next to the goal can need more expansions than the
-        per-replan budget; while no plan exists the vehicle holds (safe), so each failure
-        doubles the next search's budget (expansions in lockstep, wall time in realtime)
-        instead of retrying the same search for ever. Deterministic: it depends only on the
-        count of failures.
-        """
-        return 2 ** min(self._failed_in_row, SEARCH_BUDGET_DOUBLINGS)
-
-    def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion],
-                budget_scale: int = 1) -> None:
-        t0 = time.perf_counter()
-        try:
-            # Clearance region at the start (paper App.): if a region has grown over the
-            # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
-            depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
-            clearance = max(self.search_cfg.clearance_radius_m, depth + START_CLEARANCE_MARGIN_M)
-            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=self._reach_floor(pos),
-                          max_expansions=self.search_cfg.max_expansions * budget_scale,
-                          time_budget_s=self.search_cfg.time_budget_s * budget_scale)
-            path = plan(pos, vel, job.goal_m, regions, cfg)
-            if path is not None:
-                cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
-                job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
-        except Exception:  # a search bug must not stop the control loop
-            log.exception("path search failed")
-        job.wall_s = time.perf_counter() - t0
-        job.done.set()
-
-    @staticmethod
-    def _path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
-        if not regions or len(path.p) < 3:
-            return False  # the first segment starts in the start clearance: not checked
-        lo, hi = boxes_array(regions)
-        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
-
-    # ------------------------------------------------------------------ reference
-    def _reference(self, pos: FloatArray, goal: FloatArray) -> tuple[FloatArray, FloatArray, list | None]:
-        n, dt = self.settings.horizon, self.settings.mpc_dt_s
-        act = self.active
-        if act is None:  # no plan yet: hold here (never rush toward the goal blind)
-            return np.tile(pos, (n + 1, 1)), np.zeros((n + 1, 3)), None
-        p = act.path
-        lo = act.progress_idx
-        hi = min(len(p.p), lo + PROGRESS_WINDOW_POINTS)
-        idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
-        act.progress_idx = idx
-        t_ref = float(p.t[idx]) + dt
-        ref = resample(p, dt, t_start=t_ref, count=n + 1)
-        times = t_ref + dt * np.arange(1, n + 1)
-        hs = halfspaces_at_times(act.corridors, times, self.settings.max_halfspaces) if act.corridors else None
-        if hs is not None:
-            a0, b0 = hs[0]
-            if float(np.max(a0 @ pos - b0)) > CORRIDOR_EXIT_M:
-                # Off the corridor (disturbance, held position, changed goal): corridor rows
-                # from here would only be slack; track the path without them and replan now.
-                self._force_replan = True
-                hs = None
-        return ref.p, ref.v, hs
-
     def _snapshot(self, t: float, regions: list[UnsafeRegion], around: Surroundings | None) -> PlanSnapshot:
         assert self.mission is not None
-        act = self.active
+        act = self.paths.active
         return plan_snapshot(self.settings.drone_id, self.mission.episode_id, t, self.landing, regions, around,
                              act.path if act else None, act.corridors if act else [], act.search_ms if act else None)

@@ -36,7 +36,7 @@ def test_yaw_reference_takes_the_short_way_through_pi():
 def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
     """A failed search used to be retried with the same budget for ever (the drone held at its
     start for the whole episode when the way around a wide crown needed ~1000 expansions)."""
-    import llmland_planner.planner as planner_module
+    import llmland_planner.replanning as planner_module
 
     budgets: list[int] = []
 
@@ -52,7 +52,7 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     t = 0.0
     while t < 3.0:
-        pl._maybe_replan(t, pos, vel, goal, [])
+        pl.paths.maybe_replan(t, pos, vel, goal, [], z_floor_m=0.0)
         t += settings.search_budget_s
     base = settings.search_max_expansions
     cap = base * 2 ** planner_module.SEARCH_BUDGET_DOUBLINGS
@@ -61,7 +61,7 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
 
 def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypatch):
     """Back-to-back searches at ×16 budget made a lockstep episode take half an hour of wall time."""
-    import llmland_planner.planner as planner_module
+    import llmland_planner.replanning as planner_module
 
     starts: list[float] = []
     clock = {"t": 0.0}
@@ -77,7 +77,7 @@ def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypa
                          clock="lockstep"))
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     while clock["t"] < 6.0:
-        pl._maybe_replan(clock["t"], pos, vel, goal, [])
+        pl.paths.maybe_replan(clock["t"], pos, vel, goal, [], z_floor_m=0.0)
         clock["t"] += settings.search_budget_s
     escalating = planner_module.SEARCH_BUDGET_DOUBLINGS + 1
     gaps = np.diff(starts[escalating:])

@@ -1,0 +1,212 @@
+"""The path side of the planner: search on a worker thread, adopt plans by the mission's clock, follow.
+
+Path search runs on a worker thread so a slow search never blocks the control loop. When
+its plan is adopted depends on the mission's clock:
+
+- ``realtime``: the search is bounded by ``search_budget_s`` of wall time and its plan is
+  adopted once the sim clock has advanced by the search's measured wall time;
+- ``lockstep``: the search is bounded by ``search_max_expansions`` (not wall time) and its
+  plan is adopted exactly ``search_budget_s`` of sim time after it started (the tick waits
+  for the worker if it is late), so a seeded episode flies the same way on any machine.
+
+A failed search doubles the next one's budget (:meth:`Replanner.search_budget_scale`); the
+adopted path is followed by :meth:`Replanner.reference` (a window of the path ahead and its
+corridors' half-spaces for the MPC).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from llmland_schemas.arrays import FloatArray
+
+from .corridors import Corridor, corridors_for_path, halfspaces_at_times
+from .mpc import Halfspaces
+from .path import Path, resample
+from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
+from .search import SearchConfig, plan
+from .settings import PlannerSettings
+
+log = logging.getLogger(__name__)
+
+#: Farther than this (m) outside the current corridor, its rows are dropped and we replan.
+CORRIDOR_EXIT_M = 0.3
+#: a failed search doubles the next one's budget, at most this many times in a row (×16)
+SEARCH_BUDGET_DOUBLINGS = 4
+#: The search's workspace spans ± this (m) horizontally (up to ``max_altitude_m``).
+WORKSPACE_HALF_XY_M = 100.0
+#: A goal that moved farther than this (m) from the active plan's is replanned for.
+GOAL_MOVED_REPLAN_M = 0.3
+#: Inside a region at the start, the start clearance reaches this far (m) beyond its depth.
+START_CLEARANCE_MARGIN_M = 0.3
+#: The nearest path point is looked for among this many points past the last progress.
+PROGRESS_WINDOW_POINTS = 40
+#: Sim times closer than this (s) are the same instant.
+EPS_S = 1e-9
+
+
+@dataclass
+class ActivePlan:
+    path: Path
+    corridors: list[Corridor]
+    goal_m: FloatArray
+    made_at_s: float
+    search_ms: float
+    progress_idx: int = 0
+
+
+@dataclass
+class _Job:
+    t0_s: float
+    goal_m: FloatArray
+    wall_s: float = 0.0
+    result: ActivePlan | None = None
+    failed: bool = False
+    done: threading.Event = field(default_factory=threading.Event)
+
+
+class Replanner:
+    """Searches, adopts and follows paths for one drone (called from the control tick only)."""
+
+    def __init__(self, settings: PlannerSettings) -> None:
+        self.settings = s = settings
+        workspace_hi = (WORKSPACE_HALF_XY_M, WORKSPACE_HALF_XY_M, s.max_altitude_m)
+        self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
+        self.lockstep = False
+        self.active: ActivePlan | None = None
+        self.failed_searches = 0
+        #: replan at the next tick (the vehicle left its corridor)
+        self.force_replan = False
+        self._job: _Job | None = None
+        self._last_replan_s = -1e9
+        self._failed_in_row = 0
+
+    def start(self, lockstep: bool) -> None:
+        """A new episode: forget plans; bound searches by expansions (lockstep) or wall time."""
+        s = self.settings
+        self.lockstep = lockstep
+        if lockstep:
+            self.search_cfg = replace(self.search_cfg, time_budget_s=float("inf"),
+                                      max_expansions=s.search_max_expansions)
+        else:
+            self.search_cfg = replace(self.search_cfg, time_budget_s=s.search_budget_s,
+                                      max_expansions=SearchConfig.max_expansions)
+        self.active, self._job = None, None
+        self._last_replan_s = -1e9
+
+    def maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
+                     regions: list[UnsafeRegion], z_floor_m: float) -> bool:
+        """Adopt a finished search when it is due, start a new one when needed; True if adopted.
+
+        ``z_floor_m``: the lowest altitude (m) a new path may take.
+        """
+        adopted = self._adopt_due(t, regions)
+        need = (
+            self.force_replan
+            or self.active is None
+            or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
+            or t - self._last_replan_s >= self.settings.replan_period_s
+            or self.path_blocked(self.active.path, regions)
+        )
+        # at the full budget, failures are retried once per replan period, not back to back
+        # (each costs ~16× a search: in lockstep the sim waits for it)
+        backing_off = (self._failed_in_row > SEARCH_BUDGET_DOUBLINGS and not self.force_replan
+                       and t - self._last_replan_s < self.settings.replan_period_s)
+        if need and self._job is None and not backing_off:
+            self.force_replan = False
+            self._last_replan_s = t
+            self._job = _Job(t0_s=t, goal_m=goal.copy())
+            threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions),
+                                                        z_floor_m, self.search_budget_scale()), daemon=True).start()
+        return adopted
+
+    def _adopt_due(self, t: float, regions: list[UnsafeRegion]) -> bool:
+        job = self._job
+        if job is None:
+            return False
+        if self.lockstep:
+            due = t >= job.t0_s + self.settings.search_budget_s - EPS_S
+            if due:
+                job.done.wait()  # a fixed adoption time; the worker is normally done by now
+        else:
+            due = job.done.is_set() and t >= job.t0_s + job.wall_s
+        if not due:
+            return False
+        self._job = None
+        if job.result is not None:
+            self._failed_in_row = 0
+            self.active = job.result
+            return True
+        self.failed_searches += 1
+        self._failed_in_row += 1
+        if self.active is not None and self.path_blocked(self.active.path, regions):
+            self.active = None  # never keep following a path into a region: hold instead
+        return False
+
+    def search_budget_scale(self) -> int:
+        """Budget multiplier after failed searches in a row: 2^k, k ≤ ``SEARCH_BUDGET_DOUBLINGS``.
+
+        A way around a wide obstacle next to the goal can need more expansions than the
+        per-replan budget; while no plan exists the vehicle holds (safe), so each failure
+        doubles the next search's budget (expansions in lockstep, wall time in realtime)
+        instead of retrying the same search for ever. Deterministic: it depends only on the
+        count of failures.
+        """
+        return 2 ** min(self._failed_in_row, SEARCH_BUDGET_DOUBLINGS)
+
+    def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion],
+                z_floor_m: float, budget_scale: int = 1) -> None:
+        t0 = time.perf_counter()
+        try:
+            # Clearance region at the start (paper App.): if a region has grown over the
+            # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
+            depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
+            clearance = max(self.search_cfg.clearance_radius_m, depth + START_CLEARANCE_MARGIN_M)
+            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m,
+                          max_expansions=self.search_cfg.max_expansions * budget_scale,
+                          time_budget_s=self.search_cfg.time_budget_s * budget_scale)
+            path = plan(pos, vel, job.goal_m, regions, cfg)
+            if path is not None:
+                cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
+                job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
+        except Exception:  # a search bug must not stop the control loop
+            log.exception("path search failed")
+        job.wall_s = time.perf_counter() - t0
+        job.done.set()
+
+    @staticmethod
+    def path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
+        """Whether the path beyond its first segment crosses a region."""
+        if not regions or len(path.p) < 3:
+            return False  # the first segment starts in the start clearance: not checked
+        lo, hi = boxes_array(regions)
+        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
+
+    def reference(self, pos: FloatArray) -> tuple[FloatArray, FloatArray, Halfspaces | None]:
+        """MPC references ``(N+1, 3)`` position and velocity along the active path, with its
+        corridors' half-spaces per stage (None: none); without a plan, hold where the vehicle is."""
+        n, dt = self.settings.horizon, self.settings.mpc_dt_s
+        act = self.active
+        if act is None:  # no plan yet: hold here (never rush toward the goal blind)
+            return np.tile(pos, (n + 1, 1)), np.zeros((n + 1, 3)), None
+        p = act.path
+        lo = act.progress_idx
+        hi = min(len(p.p), lo + PROGRESS_WINDOW_POINTS)
+        idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
+        act.progress_idx = idx
+        t_ref = float(p.t[idx]) + dt
+        ref = resample(p, dt, t_start=t_ref, count=n + 1)
+        times = t_ref + dt * np.arange(1, n + 1)
+        hs = halfspaces_at_times(act.corridors, times, self.settings.max_halfspaces) if act.corridors else None
+        if hs is not None:
+            a0, b0 = hs[0]
+            if float(np.max(a0 @ pos - b0)) > CORRIDOR_EXIT_M:
+                # Off the corridor (disturbance, held position, changed goal): corridor rows
+                # from here would only be slack; track the path without them and replan now.
+                self.force_replan = True
+                hs = None
+        return ref.p, ref.v, hs
