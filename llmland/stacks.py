@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Literal
 
 import psutil
-from llmland_schemas import MissionGoal, Topic, VehicleState, key
+from llmland_schemas import SEMANTIC_METHODS, MissionGoal, Topic, VehicleState, key
 from llmland_schemas.bus import Bus
 
 from .episodes import EpisodeRunner, new_episode_id
@@ -29,7 +29,6 @@ log = logging.getLogger(__name__)
 
 SpecSource = Literal["pipeline", "oracle", "none"]
 #: methods whose planner uses semantic specs
-SEMANTIC_METHODS = ("llm", "llm-land")
 #: the reasoner mode that serves each semantic method (DESIGN §5)
 REASONER_MODE = {"llm": "llm", "llm-land": "rag"}
 #: latency model for specs given from ground truth: a fast reasoner, reproducible

@@ -28,10 +28,9 @@ Three views of the tracks, one per use (DESIGN §6):
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
-from llmland_schemas import PERSON_BUFFER_M, PERSON_Z_MIN_M, SafetySpec, SafetySpecMessage
+from llmland_schemas import SEMANTIC_METHODS, SafetySpec, SafetySpecMessage
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.depth import Blob, backproject, find_blobs
 from llmland_schemas.frames import CameraFrame
@@ -41,6 +40,14 @@ from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothe
 from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
 from .specs import AttachedSpec, PendingSpec, more_careful
+from .track_views import (
+    BLIND_CAUTION_METHOD,
+    TrackView,
+    is_moving,
+    person_sized,
+    spec_in_force,
+    view_track,
+)
 from .tracking import ObstacleTracker, TrackedObstacle, VisibleFn
 
 log = logging.getLogger(__name__)
@@ -49,24 +56,6 @@ log = logging.getLogger(__name__)
 GROUND_POINT_STRIDE = 2
 #: points nearer than this (m) in front of a camera are outside its view
 FRUSTUM_NEAR_M = 0.1
-#: a track up to this much (m) taller than the tallest person may still be one
-PERSON_HEIGHT_SLACK_M = 0.3
-
-
-@dataclass(frozen=True)
-class TrackView:
-    """One track as the planner uses it at a time: geometry, motion and class."""
-
-    track: TrackedObstacle
-    #: its predicted motion is used (a measured motion the method believes)
-    moving: bool
-    buffer_m: float
-    z_min: float
-    label: str
-    dynamic: bool
-    possible_person: bool
-    #: known to be a person (their height is bounded)
-    human: bool = False
 
 
 def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
@@ -111,12 +100,12 @@ class WorldModel:
 
     @property
     def semantic(self) -> bool:
-        return self.method in ("llm", "llm-land")
+        return self.method in SEMANTIC_METHODS
 
     @property
     def blind_caution(self) -> bool:
         """``conservative``: geometry only, every obstacle treated as a person."""
-        return self.method == "conservative"
+        return self.method == BLIND_CAUTION_METHOD
 
     # ------------------------------------------------------------------ inputs
     def on_frame(self, frame: CameraFrame) -> None:
@@ -184,7 +173,7 @@ class WorldModel:
             for track in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m)):
                 direct = float(np.linalg.norm(track.centroid_m[:2] - s.position_m[:2])) <= self.settings.spec_match_m
                 spec = s.spec
-                if not direct and self._person_sized(track):
+                if not direct and person_sized(track, self.settings):
                     spec = more_careful(self.spec_for(track, t_s), spec)
                 prev = batch.get(track.track_id)
                 batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
@@ -195,69 +184,15 @@ class WorldModel:
 
     # ------------------------------------------------------------------ views
     def spec_for(self, track: TrackedObstacle, t_s: float) -> SafetySpec:
-        """The track's spec, or the most conservative class when it has none or it no longer holds.
-
-        A spec of something that may move (a person, a vehicle, unknown) holds for
-        ``spec_stale_s``; after that the track may be someone else. A static thing's spec holds
-        while the track keeps its shape: if its height changes by more than
-        ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
-        blob) the spec is void. A static thing that moves is caught by :meth:`view`.
-        """
-        attached = track.spec
-        if attached is None:
-            return SafetySpec.conservative()
-        s, spec = self.settings, attached.spec
-        if spec.is_dynamic or spec.is_human is not False:
-            if t_s - attached.applied_s > s.spec_stale_s:
-                return SafetySpec.conservative()
-        else:
-            height, was = float(track.hi_m[2] - track.lo_m[2]), attached.height_m
-            if was < s.person_min_height_m <= height - s.spec_height_tolerance_m:  # grew to a person's height
-                return SafetySpec.conservative()
-        return spec
+        """The track's spec in force at ``t_s`` (see :func:`.track_views.spec_in_force`)."""
+        return spec_in_force(track, t_s, self.settings)
 
     def _moving(self, tr: TrackedObstacle) -> bool:
-        # Moving = its visible edges move together fast enough now AND it is displaced from where
-        # it was first seen: a static object seen from new angles shifts its visible centroid
-        # (one edge at a time, as more or less of it comes into view), but not by metres.
-        s = self.settings
-        origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
-        displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
-        return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
-
-    def _person_sized(self, tr: TrackedObstacle) -> bool:
-        s = self.settings
-        height = float(tr.hi_m[2] - tr.lo_m[2])
-        radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
-        tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
-        return tall_enough and radius <= s.person_max_radius_m
+        return is_moving(tr, self.settings)
 
     def view(self, tr: TrackedObstacle, t_s: float) -> TrackView:
-        """How the method sees one track at ``t_s``.
-
-        Semantic methods trust the spec: a thing the KB calls static is not swept along an
-        apparent motion (the visible surface of a tree shifts as the drone moves around it),
-        unless it is person-sized and moves or has moved: then the class was misread and it may be a person.
-        A static spec that cannot say whether it is human (``is_human`` None: the LLM without
-        retrieval, an unknown noun) makes anything that moves or has moved a possible person, as
-        geometry alone would (seen from above, a person's blob is not person-sized).
-        """
-        s, moving = self.settings, self._moving(tr)
-        if self.semantic:
-            spec = self.spec_for(tr, t_s)
-            if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
-                person = spec.is_human is not False
-            elif spec.is_human is None:  # the spec cannot say (the LLM alone, an unknown noun):
-                person = moving or tr.has_moved  # never less careful than geometry alone
-            else:  # a static class: a misread only if it is person-sized and has moved
-                person = bool(spec.is_human) or ((moving or tr.has_moved) and self._person_sized(tr))
-            believed = moving and (spec.is_dynamic or person)
-            return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
-                             human=spec.is_human is True)
-        if self.blind_caution:
-            return TrackView(tr, moving, PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True, True)
-        # geometry cannot tell a standing person from a post, but one who has walked stays a possible person
-        return TrackView(tr, moving, s.baseline_margin_m, 0.0, "obstacle", moving, moving or tr.has_moved)
+        """How the method sees one track at ``t_s`` (see :func:`.track_views.view_track`)."""
+        return view_track(tr, t_s, self.method, self.settings)
 
     def views(self, t_s: float) -> list[TrackView]:
         return [self.view(tr, t_s) for tr in self.tracker.tracks()]

@@ -322,6 +322,8 @@ MethodName = Literal["reference", "baseline", "conservative", "llm", "llm-land"]
 #: every world and every method, in the order of their ``Literal`` (the one list of each)
 WORLD_NAMES: tuple[WorldName, ...] = get_args(WorldName)
 METHOD_NAMES: tuple[MethodName, ...] = get_args(MethodName)
+#: the methods whose planner reads semantic specs (and so fly with perception)
+SEMANTIC_METHODS: tuple[MethodName, ...] = ("llm", "llm-land")
 ClockMode = Literal["lockstep", "realtime"]
 #: where semantic specs come from: nowhere, the VLE → reasoner pipeline, or ground truth
 PerceptionSource = Literal["none", "pipeline", "oracle"]

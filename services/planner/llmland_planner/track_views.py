@@ -1,0 +1,106 @@
+"""How each method sees one track: is it moving, may it be a person, which buffer it gets.
+
+The methods differ only here (DESIGN §6): ``llm`` and ``llm-land`` read the track's spec
+(:func:`spec_in_force`); ``conservative`` treats every obstacle as a person; ``baseline``
+knows geometry and motion only. Every method shares the tracker and the motion test
+(:func:`is_moving`), so the comparison is about semantics.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from llmland_schemas import PERSON_BUFFER_M, PERSON_Z_MIN_M, SEMANTIC_METHODS, SafetySpec
+
+from .hard_limit import PERSON_MAX_HEIGHT_M
+from .settings import PlannerSettings
+from .tracking import TrackedObstacle
+
+#: a track up to this much (m) taller than the tallest person may still be one
+PERSON_HEIGHT_SLACK_M = 0.3
+#: the method that treats every obstacle as a person
+BLIND_CAUTION_METHOD = "conservative"
+
+
+@dataclass(frozen=True)
+class TrackView:
+    """One track as the planner uses it at a time: geometry, motion and class."""
+
+    track: TrackedObstacle
+    #: its predicted motion is used (a measured motion the method believes)
+    moving: bool
+    buffer_m: float
+    z_min: float
+    label: str
+    dynamic: bool
+    possible_person: bool
+    #: known to be a person (their height is bounded)
+    human: bool = False
+
+
+
+def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings) -> SafetySpec:
+    """The track's spec, or the most conservative class when it has none or it no longer holds.
+
+    A spec of something that may move (a person, a vehicle, unknown) holds for
+    ``spec_stale_s``; after that the track may be someone else. A static thing's spec holds
+    while the track keeps its shape: if its height changes by more than
+    ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
+    blob) the spec is void. A static thing that moves is caught by :func:`view_track`.
+    """
+    attached = track.spec
+    if attached is None:
+        return SafetySpec.conservative()
+    s, spec = settings, attached.spec
+    if spec.is_dynamic or spec.is_human is not False:
+        if t_s - attached.applied_s > s.spec_stale_s:
+            return SafetySpec.conservative()
+    else:
+        height, was = float(track.hi_m[2] - track.lo_m[2]), attached.height_m
+        if was < s.person_min_height_m <= height - s.spec_height_tolerance_m:  # grew to a person's height
+            return SafetySpec.conservative()
+    return spec
+
+def is_moving(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
+    # Moving = its visible edges move together fast enough now AND it is displaced from where
+    # it was first seen: a static object seen from new angles shifts its visible centroid
+    # (one edge at a time, as more or less of it comes into view), but not by metres.
+    s = settings
+    origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
+    displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
+    return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
+
+def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
+    s = settings
+    height = float(tr.hi_m[2] - tr.lo_m[2])
+    radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
+    tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
+    return tall_enough and radius <= s.person_max_radius_m
+
+def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:
+    """How the method sees one track at ``t_s``.
+
+    Semantic methods trust the spec: a thing the KB calls static is not swept along an
+    apparent motion (the visible surface of a tree shifts as the drone moves around it),
+    unless it is person-sized and moves or has moved: then the class was misread and it may be a person.
+    A static spec that cannot say whether it is human (``is_human`` None: the LLM without
+    retrieval, an unknown noun) makes anything that moves or has moved a possible person, as
+    geometry alone would (seen from above, a person's blob is not person-sized).
+    """
+    s, moving = settings, is_moving(tr, settings)
+    if method in SEMANTIC_METHODS:
+        spec = spec_in_force(tr, t_s, settings)
+        if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
+            person = spec.is_human is not False
+        elif spec.is_human is None:  # the spec cannot say (the LLM alone, an unknown noun):
+            person = moving or tr.has_moved  # never less careful than geometry alone
+        else:  # a static class: a misread only if it is person-sized and has moved
+            person = bool(spec.is_human) or ((moving or tr.has_moved) and person_sized(tr, s))
+        believed = moving and (spec.is_dynamic or person)
+        return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
+                         human=spec.is_human is True)
+    if method == BLIND_CAUTION_METHOD:
+        return TrackView(tr, moving, PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True, True)
+    # geometry cannot tell a standing person from a post, but one who has walked stays a possible person
+    return TrackView(tr, moving, s.baseline_margin_m, 0.0, "obstacle", moving, moving or tr.has_moved)
