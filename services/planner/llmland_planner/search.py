@@ -247,77 +247,102 @@ def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
     Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``.
     """
     cfg = config or SearchConfig()
-    t_start = time.perf_counter()
     p0, v0 = np.asarray(start_p, dtype=float), np.asarray(start_v, dtype=float)
-    goal = np.asarray(goal_p, dtype=float)
-    chk = _Checker(regions, p0, goal, cfg)
-    free = _FreeDistance(regions, p0, goal, cfg)
-    acc = _accel_set(cfg)
-    acc_cost = (np.sum(acc ** 2, axis=1) + cfg.rho) * cfg.tau_s
-    ts = np.linspace(0.0, cfg.tau_s, cfg.samples_per_primitive + 1)
+    return _Search(p0, v0, np.asarray(goal_p, dtype=float), regions, cfg).run()
 
-    def heur(p: FloatArray, v: FloatArray) -> FloatArray:
-        phi = np.where(chk.exempt(p), 0.0, penalty(p, regions, cfg.penalty_margin_m, cfg.penalty_eps))
-        h: FloatArray = cfg.heuristic_weight * (cfg.rho * _min_time_lb(p, v, goal, cfg, free(p))
+
+class _Search:
+    """One kinodynamic A* search (paper §III-B): nodes, open heap and closed grid cells."""
+
+    def __init__(self, p0: FloatArray, v0: FloatArray, goal: FloatArray, regions: list[UnsafeRegion],
+                 cfg: SearchConfig) -> None:
+        self.cfg, self.goal, self.regions = cfg, goal, regions
+        self.t_start = time.perf_counter()
+        self.chk = _Checker(regions, p0, goal, cfg)
+        self.free = _FreeDistance(regions, p0, goal, cfg)
+        self.acc = _accel_set(cfg)
+        self.acc_cost = (np.sum(self.acc ** 2, axis=1) + cfg.rho) * cfg.tau_s
+        self.ts = np.linspace(0.0, cfg.tau_s, cfg.samples_per_primitive + 1)
+        self.scale = np.concatenate([np.full(3, 1.0 / cfg.pos_res_m), np.full(3, 1.0 / cfg.vel_res_mps)])
+        self.nodes_p, self.nodes_v, self.nodes_g = [p0], [v0], [0.0]
+        self.parent: list[int] = [-1]
+        self.parent_acc: list[FloatArray] = [np.zeros(3)]
+        self.tie = itertools.count()
+        self.heap = [(float(self.heuristic(p0[None], v0[None])[0]), next(self.tie), 0)]
+        self.closed: set[tuple[int, ...]] = set()
+        self.best_g: dict[tuple[int, ...], float] = {self.keys(p0, v0)[0]: 0.0}
+
+    def heuristic(self, p: FloatArray, v: FloatArray) -> FloatArray:
+        """Weighted lower bound on the time cost to the goal plus the region penalty φ, (M,)."""
+        cfg = self.cfg
+        phi = np.where(self.chk.exempt(p), 0.0, penalty(p, self.regions, cfg.penalty_margin_m, cfg.penalty_eps))
+        h: FloatArray = cfg.heuristic_weight * (cfg.rho * _min_time_lb(p, v, self.goal, cfg, self.free(p))
                                                 + cfg.penalty_lambda * phi)
         return h
 
-    scale = np.concatenate([np.full(3, 1.0 / cfg.pos_res_m), np.full(3, 1.0 / cfg.vel_res_mps)])
-
-    def keys(p: FloatArray, v: FloatArray) -> list[tuple[int, ...]]:
-        grid = np.round(np.concatenate([p, v], axis=-1) * scale).astype(np.int64)
+    def keys(self, p: FloatArray, v: FloatArray) -> list[tuple[int, ...]]:
+        """Grid cells of states ``(p, v)`` ((3,) or (M, 3) each)."""
+        grid = np.round(np.concatenate([p, v], axis=-1) * self.scale).astype(np.int64)
         return [tuple(row) for row in np.atleast_2d(grid).tolist()]
 
-    nodes_p, nodes_v, nodes_g = [p0], [v0], [0.0]
-    parent: list[int] = [-1]
-    parent_acc: list[FloatArray] = [np.zeros(3)]
-    tie = itertools.count()
-    heap = [(float(heur(p0[None], v0[None])[0]), next(tie), 0)]
-    closed: set[tuple[int, ...]] = set()
-    best_g: dict[tuple[int, ...], float] = {keys(p0, v0)[0]: 0.0}
-    expansions = 0
-    while heap:
-        _, _, idx = heapq.heappop(heap)
-        p, v, g = nodes_p[idx], nodes_v[idx], nodes_g[idx]
-        k = keys(p, v)[0]
-        if k in closed:
-            continue
-        closed.add(k)
-        expansions += 1
-        if expansions > cfg.max_expansions or time.perf_counter() - t_start > cfg.time_budget_s:
-            log.info("search gave up after %d expansions (%.1f ms)", expansions,
-                     1e3 * (time.perf_counter() - t_start))
+    def run(self) -> Path | None:
+        cfg, expansions = self.cfg, 0
+        while self.heap:
+            _, _, idx = heapq.heappop(self.heap)
+            p, v = self.nodes_p[idx], self.nodes_v[idx]
+            k = self.keys(p, v)[0]
+            if k in self.closed:
+                continue
+            self.closed.add(k)
+            expansions += 1
+            if expansions > cfg.max_expansions or time.perf_counter() - self.t_start > cfg.time_budget_s:
+                log.info("search gave up after %d expansions (%.1f ms)", expansions,
+                         1e3 * (time.perf_counter() - self.t_start))
+                return None
+            path = self._shot(idx, expansions)
+            if path is not None:
+                return path
+            self._expand(idx)
+        log.info("search exhausted the open set after %d expansions", expansions)
+        return None
+
+    def _shot(self, idx: int, expansions: int) -> Path | None:
+        """Near the goal: the collision-free cubic to rest at the goal from node ``idx``, if any."""
+        cfg, p, v, g = self.cfg, self.nodes_p[idx], self.nodes_v[idx], self.nodes_g[idx]
+        if np.linalg.norm(self.goal - p) > cfg.shot_radius_m:
             return None
-        if np.linalg.norm(goal - p) <= cfg.shot_radius_m:
-            shot = cubic_to_rest(p, v, goal, cfg.rho, cfg.v_max_mps, cfg.a_max_mps2)
-            if shot is not None:
-                coeffs, dur, cost = shot
-                pts = sample_cubic(coeffs, np.linspace(0.0, dur, max(4, int(dur / 0.1) + 2)))[0]
-                if chk.ok(pts[None])[0]:
-                    chain = _backtrack(idx, parent, parent_acc, nodes_p, nodes_v)
-                    log.debug("search: %d expansions, cost %.2f", expansions, g + cost)
-                    return Path.from_pieces(chain, (coeffs, dur), cfg.tau_s, g + cost, expansions)
-        pos, vel = sample_primitive(p, v, acc, ts)  # (M, S+1, 3)
+        shot = cubic_to_rest(p, v, self.goal, cfg.rho, cfg.v_max_mps, cfg.a_max_mps2)
+        if shot is None:
+            return None
+        coeffs, dur, cost = shot
+        pts = sample_cubic(coeffs, np.linspace(0.0, dur, max(4, int(dur / 0.1) + 2)))[0]
+        if not self.chk.ok(pts[None])[0]:
+            return None
+        chain = _backtrack(idx, self.parent, self.parent_acc, self.nodes_p, self.nodes_v)
+        log.debug("search: %d expansions, cost %.2f", expansions, g + cost)
+        return Path.from_pieces(chain, (coeffs, dur), cfg.tau_s, g + cost, expansions)
+
+    def _expand(self, idx: int) -> None:
+        """Push the node's feasible, improving successors (one motion primitive per acceleration)."""
+        cfg, p, v, g = self.cfg, self.nodes_p[idx], self.nodes_v[idx], self.nodes_g[idx]
+        pos, vel = sample_primitive(p, v, self.acc, self.ts)  # (M, S+1, 3)
         good = np.linalg.norm(vel[:, -1], axis=1) <= cfg.v_max_mps + 1e-9
-        good &= chk.ok(pos)
+        good &= self.chk.ok(pos)
         cand = np.flatnonzero(good)
         if cand.size == 0:
-            continue
-        hs = heur(pos[cand, -1], vel[cand, -1])
-        for j, h, kc in zip(cand, hs, keys(pos[cand, -1], vel[cand, -1]), strict=True):
-            pc, vc = pos[j, -1], vel[j, -1]
-            gc = g + float(acc_cost[j])
-            if kc in closed or gc >= best_g.get(kc, np.inf):
+            return
+        hs = self.heuristic(pos[cand, -1], vel[cand, -1])
+        for j, h, kc in zip(cand, hs, self.keys(pos[cand, -1], vel[cand, -1]), strict=True):
+            gc = g + float(self.acc_cost[j])
+            if kc in self.closed or gc >= self.best_g.get(kc, np.inf):
                 continue
-            best_g[kc] = gc
-            nodes_p.append(pc)
-            nodes_v.append(vc)
-            nodes_g.append(gc)
-            parent.append(idx)
-            parent_acc.append(acc[j])
-            heapq.heappush(heap, (gc + float(h), next(tie), len(nodes_p) - 1))
-    log.info("search exhausted the open set after %d expansions", expansions)
-    return None
+            self.best_g[kc] = gc
+            self.nodes_p.append(pos[j, -1])
+            self.nodes_v.append(vel[j, -1])
+            self.nodes_g.append(gc)
+            self.parent.append(idx)
+            self.parent_acc.append(self.acc[j])
+            heapq.heappush(self.heap, (gc + float(h), next(self.tie), len(self.nodes_p) - 1))
 
 
 def _backtrack(idx: int, parent: list[int], parent_acc: list[FloatArray],
