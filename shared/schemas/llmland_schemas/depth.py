@@ -162,21 +162,40 @@ def find_blobs(
     labels, n = _label_edges(pts, valid, cluster_gap_m)
     if n == 0:
         return []
+    sel, lab = _kept_cluster_points(labels, n, min_points)
+    if sel.size == 0:
+        return []
+    blobs = _blobs(pts.reshape(-1, 3)[sel], np.divmod(sel, labels.shape[1]), lab, stride, np.shape(depth_m),
+                   ground_height_fn)
+    log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)
+    return blobs
+
+
+def _kept_cluster_points(
+    labels: NDArray[np.int32], n: int, min_points: int
+) -> tuple[NDArray[np.intp], NDArray[np.int32]]:
+    """Flat indices of the points of clusters with at least ``min_points`` points, and their
+    labels, grouped by label (stable)."""
     flat = labels.ravel()
     sel = np.flatnonzero(flat)
     lab = flat[sel]
     counts = np.bincount(lab, minlength=n + 1)
     keep = np.flatnonzero(counts >= min_points)
     if keep.size == 0:
-        return []
+        return sel[:0], lab[:0]
     keep_mask = np.zeros(n + 1, dtype=bool)
     keep_mask[keep] = True
     sel = sel[keep_mask[lab]]
     lab = flat[sel]
     order = np.argsort(lab, kind="stable")
-    sel, lab = sel[order], lab[order]
-    p = pts.reshape(-1, 3)[sel]
-    rows, cols = np.divmod(sel, labels.shape[1])
+    return sel[order], lab[order]
+
+
+def _blobs(p: FloatArray, rows_cols: tuple[NDArray[np.intp], NDArray[np.intp]], lab: NDArray[np.int32], stride: int,
+           image_shape: tuple[int, ...], ground_height_fn: GroundHeightFn | None) -> list[Blob]:
+    """One :class:`Blob` per run of equal labels in ``lab`` (points ``p`` (N, 3) at subsampled
+    pixel ``rows_cols``), sorted by decreasing point count."""
+    rows, cols = rows_cols
     starts = np.flatnonzero(np.r_[True, lab[1:] != lab[:-1]])
     cnt = np.diff(np.r_[starts, lab.size])
     lo = np.minimum.reduceat(p, starts, axis=0)
@@ -184,7 +203,7 @@ def find_blobs(
     mean = np.add.reduceat(p, starts, axis=0) / cnt[:, None]
     u0, u1 = np.minimum.reduceat(cols, starts) * stride, np.maximum.reduceat(cols, starts) * stride
     v0, v1 = np.minimum.reduceat(rows, starts) * stride, np.maximum.reduceat(rows, starts) * stride
-    height_px, width_px = np.shape(depth_m)
+    height_px, width_px = image_shape
     if ground_height_fn is None:
         lo[:, 2] = np.minimum(lo[:, 2], 0.0)
     else:
@@ -194,30 +213,21 @@ def find_blobs(
     seg = np.repeat(np.arange(starts.size), cnt)
     r2 = np.sum((p[:, :2] - centroid[seg, :2]) ** 2, axis=1)
     radius = np.sqrt(np.maximum.reduceat(r2, starts))
-
-    blobs: list[Blob] = []
-    for rank, k in enumerate(np.argsort(-cnt, kind="stable")):
-        blobs.append(
-            Blob(
-                blob_id=rank,
-                centroid_m=centroid[k].copy(),
-                mean_m=mean[k].copy(),
-                lo_m=lo[k].copy(),
-                hi_m=hi[k].copy(),
-                size_m=hi[k] - lo[k],
-                n_points=int(cnt[k]),
-                bbox_px=(
-                    int(u0[k]),
-                    int(v0[k]),
-                    int(min(u1[k] + stride, width_px)),
-                    int(min(v1[k] + stride, height_px)),
-                ),
-                footprint_radius_m=float(radius[k]),
-                touches_top=bool(v0[k] == 0),
-            )
+    return [
+        Blob(
+            blob_id=rank,
+            centroid_m=centroid[k].copy(),
+            mean_m=mean[k].copy(),
+            lo_m=lo[k].copy(),
+            hi_m=hi[k].copy(),
+            size_m=hi[k] - lo[k],
+            n_points=int(cnt[k]),
+            bbox_px=(int(u0[k]), int(v0[k]), int(min(u1[k] + stride, width_px)), int(min(v1[k] + stride, height_px))),
+            footprint_radius_m=float(radius[k]),
+            touches_top=bool(v0[k] == 0),
         )
-    log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)
-    return blobs
+        for rank, k in enumerate(np.argsort(-cnt, kind="stable"))
+    ]
 
 
 def blobs_from_frame(frame: CameraFrame, **kwargs: Any) -> list[Blob]:
