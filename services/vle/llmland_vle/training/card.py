@@ -18,14 +18,16 @@ def _row(name: str, m: dict[str, Any]) -> str:
 
 
 def write_model_card(path: Path, version: str, cfg: ModelConfig, info: dict[str, Any], model: SimCapNet) -> None:
-    m = info["metrics"]
-    nb = info["metrics_without_bias"]
-    bias = float(info.get("person_bias", 0.0))
+    """Write ``MODEL_CARD.md`` at ``path`` (weights expected beside it as ``simcap.pt``)."""
     n_params = sum(p.numel() for p in model.parameters())
     weights = path.parent / "simcap.pt"
     size_mb = weights.stat().st_size / 1e6 if weights.is_file() else float("nan")
-    per_class = {k: m[k].get("per_class_acc", {}) for k in ("seg_crops", "blob_crops")}
-    text = f"""# simcap {version} — model card
+    path.write_text("\n".join([_summary(version, cfg, n_params, size_mb), _INTENDED_USE, _data(info),
+                               _training(info), _results(info), _LIMITS]))
+
+
+def _summary(version: str, cfg: ModelConfig, n_params: int, size_mb: float) -> str:
+    return f"""# simcap {version} — model card
 
 simcap is LLM-Land's default captioner: a small CNN image encoder (4×4 stride-4 stem + four
 3×3 conv blocks, channels {list(cfg.channels)}, global average pooling) and a GRU word
@@ -33,13 +35,18 @@ decoder (hidden {cfg.hidden_dim}, word vocabulary of {cfg.vocab_size}), {n_param
 `simcap.pt` {size_mb:.1f} MB (float32 `state_dict`). Object crops are {cfg.crop_size}×{cfg.crop_size}, whole
 frames {cfg.frame_size}×{cfg.frame_size}; the first decoder token (`<object>` / `<frame>`) picks the
 caption style. Greedy decoding, batched.
+"""
 
-## Intended use
+
+_INTENDED_USE = """## Intended use
 Captions of the LLM-Land simulator's camera (pybullet renders of the `open_field`, `urban`
 and `forest_edge` worlds), per depth-blob crop and per frame, for the reasoner. It has
 never seen a real photograph: use the `blip` backend with local weights for real cameras.
+"""
 
-## Data (regenerate with `llmland-vle train`)
+
+def _data(info: dict[str, Any]) -> str:
+    return f"""## Data (regenerate with `llmland-vle train`)
 - Worlds {list(WORLDS)}; training world seeds `{info['train_seeds']}`, {info['renders']} renders per
   world and seed; held-out seeds `{info['eval_seeds']}`, {info['eval_renders']} renders each. Seeds used by
   experiments (small integers) are in neither; validation seeds `{info["val_seeds"]}` choose the person
@@ -61,15 +68,25 @@ never seen a real photograph: use the `blip` backend with local weights for real
   (grass / road / sidewalk / parking lot), motion word from the true velocity.
 - Counts: {info['train_crops']} training crops + {info['train_frames']} frames; held-out
   {info['eval_crops']} crops + {info['eval_frames']} frames.
+"""
 
-## Training
+
+def _training(info: dict[str, Any]) -> str:
+    return f"""## Training
 `{json.dumps(info['train_config'])}` — AdamW, one-cycle LR, class-balanced sampling
 (1/√frequency), class words weighted in the loss, person crops weighted up, auxiliary
 class head (persons weighted up); augmentation: flip, zoom 0.85–1.1, shift ±8%,
 brightness ±12%, tint ±4%.
 Rendering took {info['data_s']:.0f} s, training {info['train_s']:.0f} s on this machine's CPU.
+"""
 
-## Held-out results (seeds never used in training)
+
+def _results(info: dict[str, Any]) -> str:
+    m = info["metrics"]
+    nb = info["metrics_without_bias"]
+    bias = float(info.get("person_bias", 0.0))
+    per_class = {k: m[k].get("per_class_acc", {}) for k in ("seg_crops", "blob_crops")}
+    return f"""## Held-out results (seeds never used in training)
 With the decoding bias of {bias:+.1f} on the word "person" (chosen on validation seeds
 `{info['val_seeds']}`: the smallest bias reaching 99.5% person recall there without costing
 more than a point of class accuracy; table in `simcap.json`):
@@ -102,12 +119,13 @@ Exact caption match {m['exact_caption']:.4f}; colour word {m['colour_acc']:.4f};
 {m['motion_acc']:.4f} (walking vs standing cannot be seen in one still frame; the model guesses).
 Frames: class-mention precision {m['frames']['mention_precision']:.4f}, recall {m['frames']['mention_recall']:.4f}
 (n = {m['frames']['n']}).
+"""
 
-## Limits
+
+_LIMITS = """## Limits
 - Only the simulator's look; crates are class "rock" in the truth, so they are captioned as rocks.
 - Persons merged into one depth blob with a larger object (a person touching a car or a
   forest mound) are captioned as that object; the frame caption still mentions people.
 - Reproducible for a given thread count and renderer; EGL and TinyRenderer images differ
   slightly, so data rendered on another machine may differ.
 """
-    path.write_text(text)
