@@ -72,11 +72,25 @@ def _augment(x: Tensor, gen: torch.Generator) -> Tensor:
     return (x * gain * tint).clamp(0.0, 255.0)
 
 
-def train(data: RenderSet, vocab: Vocab, mcfg: ModelConfig, tcfg: TrainConfig) -> SimCapNet:
-    """Train a fresh model; returns it in eval mode."""
-    torch.manual_seed(tcfg.seed)
-    torch.set_num_threads(tcfg.threads)
-    gen = torch.Generator().manual_seed(tcfg.seed)
+@dataclass(frozen=True)
+class _TrainSet:
+    """Tensors of one training run: object crops (N, 3, H, W) with token inputs, targets and
+    weights and class indices; whole frames likewise; per-crop draw weights; class-head weights."""
+
+    crops: Tensor
+    c_in: Tensor
+    c_tgt: Tensor
+    c_w: Tensor
+    cls_idx: Tensor
+    frames: Tensor
+    f_in: Tensor
+    f_tgt: Tensor
+    f_w: Tensor
+    draw_w: Tensor
+    aux_w: Tensor
+
+
+def _train_set(data: RenderSet, vocab: Vocab, mcfg: ModelConfig, tcfg: TrainConfig) -> _TrainSet:
     keep = [i for i, c in enumerate(data.classes) if c]
     crops = torch.from_numpy(np.stack([data.crops[i] for i in keep])).permute(0, 3, 1, 2).contiguous()
     classes = [data.classes[i] for i in keep]
@@ -94,15 +108,27 @@ def train(data: RenderSet, vocab: Vocab, mcfg: ModelConfig, tcfg: TrainConfig) -
     draw_w = (1.0 / freq.sqrt())[cls_idx]
     aux_w = torch.ones(len(CLASSES))
     aux_w[CLASSES.index("person")] = tcfg.aux_person_weight
+    return _TrainSet(crops, c_in, c_tgt, c_w, cls_idx, frames, f_in, f_tgt, f_w, draw_w, aux_w)
+
+
+def train(data: RenderSet, vocab: Vocab, mcfg: ModelConfig, tcfg: TrainConfig) -> SimCapNet:
+    """Train a fresh model; returns it in eval mode."""
+    torch.manual_seed(tcfg.seed)
+    torch.set_num_threads(tcfg.threads)
+    gen = torch.Generator().manual_seed(tcfg.seed)
+    ts = _train_set(data, vocab, mcfg, tcfg)
+    crops, c_in, c_tgt, c_w, cls_idx = ts.crops, ts.c_in, ts.c_tgt, ts.c_w, ts.cls_idx
+    frames, f_in, f_tgt, f_w, draw_w = ts.frames, ts.f_in, ts.f_tgt, ts.f_w, ts.draw_w
+    n_crops = len(crops)
 
     model = SimCapNet(mcfg)
     opt = torch.optim.AdamW(model.parameters(), lr=tcfg.lr, weight_decay=tcfg.weight_decay)
-    n_batches = math.ceil(len(keep) / tcfg.batch_size)
+    n_batches = math.ceil(n_crops / tcfg.batch_size)
     total = tcfg.epochs * (n_batches + n_batches // tcfg.frame_batches_every)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=tcfg.lr, total_steps=total, pct_start=0.15)
     ce = nn.CrossEntropyLoss(reduction="none")
-    aux_ce = nn.CrossEntropyLoss(weight=aux_w)
-    log.info("training on %d crops + %d frames, %d epochs, %d steps", len(keep), len(data.frames), tcfg.epochs, total)
+    aux_ce = nn.CrossEntropyLoss(weight=ts.aux_w)
+    log.info("training on %d crops + %d frames, %d epochs, %d steps", n_crops, len(data.frames), tcfg.epochs, total)
     t0 = time.perf_counter()
     model.train()
 
@@ -119,7 +145,7 @@ def train(data: RenderSet, vocab: Vocab, mcfg: ModelConfig, tcfg: TrainConfig) -
         return float(loss.detach())
 
     for epoch in range(tcfg.epochs):
-        order = torch.multinomial(draw_w, len(keep), replacement=True, generator=gen)
+        order = torch.multinomial(draw_w, n_crops, replacement=True, generator=gen)
         f_order = torch.randperm(len(data.frames), generator=gen)
         losses = []
         for b in range(n_batches):
