@@ -214,7 +214,17 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--log-level", default="INFO")
     parser.add_argument("--service-log-level", default="WARNING", help="log level of the child services")
     sub = parser.add_subparsers(dest="command", required=True)
+    _add_land_parser(sub)
+    _add_trials_parser(sub)
+    _add_experiment_parser(sub)
+    _add_up_parser(sub)
+    _add_mission_parser(sub)
+    _add_bench_parser(sub)
+    add_view_parser(sub)
+    return parser
 
+
+def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     land = sub.add_parser("land", help="fly one episode and print its EpisodeResult JSON")
     _episode_args(land)
     land.add_argument("--seed", type=int, default=1)
@@ -224,12 +234,16 @@ def build_parser() -> argparse.ArgumentParser:
                       help="fault run: kill a service (vle, reasoner, ...) when the episode reaches SIM_S seconds")
     land.set_defaults(func=cmd_land)
 
+
+def _add_trials_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     trials = sub.add_parser("trials", help="fly many seeds on one stack; CSV + summary")
     _episode_args(trials)
     trials.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 1,4,7-9")
     trials.add_argument("--out", default="runs/trials")
     trials.set_defaults(func=cmd_trials)
 
+
+def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     exp = sub.add_parser("experiment", help="run exp1|exp2|exp3 (DESIGN §8) into a results folder")
     exp.add_argument("experiment", choices=["exp1", "exp2", "exp3"])
     exp.add_argument("--trials", type=int, default=50, help="trials per row (default 50)")
@@ -248,6 +262,8 @@ def build_parser() -> argparse.ArgumentParser:
     exp.add_argument("--out", required=True, help="results folder")
     exp.set_defaults(func=cmd_experiment)
 
+
+def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
@@ -259,6 +275,8 @@ def build_parser() -> argparse.ArgumentParser:
     up.add_argument("--start-timeout", type=float, default=180.0, help="seconds to wait for every service")
     up.set_defaults(func=cmd_up)
 
+
+def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     mission = sub.add_parser("mission", help="send a mission to a running stack (`llmland up`); print its result")
     mission.add_argument("--world", choices=WORLDS, required=True)
     mission.add_argument("--seed", type=int, required=True)
@@ -276,14 +294,13 @@ def build_parser() -> argparse.ArgumentParser:
     mission.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     mission.set_defaults(func=cmd_mission)
 
+
+def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
     bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner"])
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)
-
-    add_view_parser(sub)
-    return parser
 
 
 def _interrupt_on_sigterm(_signum: int, _frame: object) -> None:
