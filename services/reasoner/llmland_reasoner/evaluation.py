@@ -34,6 +34,7 @@ import os
 import subprocess
 import sys
 import time
+from dataclasses import dataclass, field
 from importlib import resources as pkg_resources
 from pathlib import Path
 from typing import Any, Literal
@@ -42,7 +43,7 @@ import numpy as np
 from llmland_schemas import ANIMAL_BUFFER_M, PERSON_BUFFER_M, STATIC_BUFFER_M, VEHICLE_BUFFER_M
 from pydantic import BaseModel
 
-from .extractor import SpecExtractor
+from .extractor import Extraction, SpecExtractor
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
@@ -170,6 +171,51 @@ def _pct(values: list[float]) -> dict[str, float]:
     return {"p50": round(float(np.percentile(arr, 50)), 1), "p95": round(float(np.percentile(arr, 95)), 1)}
 
 
+@dataclass
+class _Tally:
+    """What :func:`evaluate` counts over the cases of one mode."""
+
+    mode: Mode
+    humans: set[str]
+    ok_dyn: int = 0
+    ok_buf: int = 0
+    ok_both: int = 0
+    fallbacks: int = 0
+    changed: int = 0
+    unsafe: int = 0
+    decisions: int = 0
+    moved: int = 0
+    readings_right: int = 0
+    human_right: list[bool] = field(default_factory=list)
+    by_class: dict[str, list[bool]] = field(default_factory=dict)
+    misses: list[dict[str, Any]] = field(default_factory=list)
+
+    def add(self, case: CaptionCase, first: Extraction) -> None:
+        """One case's first (cold) answer."""
+        spec = first.spec
+        dyn_ok = case.is_dynamic is None or spec.is_dynamic == case.is_dynamic
+        buf_ok = buffer_class(spec.buffer_m) == case.buffer_class
+        self.ok_dyn += dyn_ok
+        self.ok_buf += buf_ok
+        self.ok_both += dyn_ok and buf_ok
+        self.by_class.setdefault(case.cls, []).append(dyn_ok and buf_ok)
+        bad = is_unsafe(case, spec.is_dynamic, spec.buffer_m)
+        self.unsafe += bad
+        self.fallbacks += spec.source == "fallback"
+        self.changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
+        self.decisions += first.decisions > 0
+        self.moved += first.changed > 0
+        self.readings_right += case.reading == ("other" if first.changed else "rules")
+        if self.mode != "llm" and spec.source != "fallback":  # a cyclist is a person with the vehicle buffer
+            self.human_right.append(first.is_human is (case.cls == "person" or case.expect in self.humans))
+        if not (dyn_ok and buf_ok):
+            self.misses.append({
+                "caption": case.caption, "expect": case.expect, "label": spec.label, "is_dynamic": spec.is_dynamic,
+                "buffer_m": spec.buffer_m, "phrase": first.phrase, "error": first.error, "unsafe": bad,
+                "changed_reading": first.changed > 0,
+            })
+
+
 def evaluate(
     mode: Mode,
     data: str = "eval",
@@ -182,75 +228,42 @@ def evaluate(
     cases = load_cases(data)[::stride]
     extractor = SpecExtractor(mode, settings=settings, resources=resources)
     extractor.warm_up()
-    humans = {e.id for e in extractor.resources.kb.entries if e.is_human}
-    ok_dyn = ok_buf = ok_both = fallbacks = changed = unsafe = decisions = moved = readings_right = 0
-    human_right: list[bool] = []
-    by_class: dict[str, list[bool]] = {}
+    tally = _Tally(mode, {e.id for e in extractor.resources.kb.entries if e.is_human})
     cold: list[float] = []
     warm: list[float] = []
     cpu: list[float] = []
-    misses: list[dict[str, Any]] = []
     for case in cases:
         cpu_started = time.process_time()
         first = extractor.extract_detailed(case.caption)
         cpu.append(1e3 * (time.process_time() - cpu_started))
         cold.append(first.spec.latency_ms)
         warm.append(extractor.extract_detailed(case.caption).spec.latency_ms)
-        spec = first.spec
-        dyn_ok = case.is_dynamic is None or spec.is_dynamic == case.is_dynamic
-        buf_ok = buffer_class(spec.buffer_m) == case.buffer_class
-        ok_dyn += dyn_ok
-        ok_buf += buf_ok
-        ok_both += dyn_ok and buf_ok
-        by_class.setdefault(case.cls, []).append(dyn_ok and buf_ok)
-        bad = is_unsafe(case, spec.is_dynamic, spec.buffer_m)
-        unsafe += bad
-        fallbacks += spec.source == "fallback"
-        changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
-        decisions += first.decisions > 0
-        moved += first.changed > 0
-        readings_right += case.reading == ("other" if first.changed else "rules")
-        if mode != "llm" and spec.source != "fallback":  # a cyclist is a person with the vehicle buffer
-            human_right.append(first.is_human is (case.cls == "person" or case.expect in humans))
-        if not (dyn_ok and buf_ok):
-            misses.append(
-                {
-                    "caption": case.caption,
-                    "expect": case.expect,
-                    "label": spec.label,
-                    "is_dynamic": spec.is_dynamic,
-                    "buffer_m": spec.buffer_m,
-                    "phrase": first.phrase,
-                    "error": first.error,
-                    "unsafe": bad,
-                    "changed_reading": first.changed > 0,
-                }
-            )
+        tally.add(case, first)
     rss = peak_rss_mb()  # before anything exits
     extractor.close()
-    n = len(cases)
+    n, t = len(cases), tally
     return EvalReport(
         mode=mode,
         data=data,
         n=n,
-        acc_dynamic=round(ok_dyn / n, 4),
-        acc_buffer=round(ok_buf / n, 4),
-        acc_both=round(ok_both / n, 4),
-        fallbacks=fallbacks,
+        acc_dynamic=round(t.ok_dyn / n, 4),
+        acc_buffer=round(t.ok_buf / n, 4),
+        acc_both=round(t.ok_both / n, 4),
+        fallbacks=t.fallbacks,
         latency_cold_ms=_pct(cold),
         latency_warm_ms=_pct(warm),
         cpu_cold_ms=_pct(cpu),
         load_s={k: round(v, 2) for k, v in extractor.resources.load_s.items()},
         peak_rss_mb=round(sum(rss.values()), 1),
         peak_rss_parts_mb=rss,
-        llm_changed_retrieval=changed if mode == "rag" else None,
-        per_class={k: {"n": len(v), "acc": round(sum(v) / len(v), 4)} for k, v in sorted(by_class.items())},
-        unsafe=unsafe,
-        decisions=decisions,
-        changed=moved,
-        decisions_right=readings_right if any(c.reading for c in cases) else None,
-        is_human_right=round(sum(human_right) / len(human_right), 4) if human_right else None,
-        misses=misses,
+        llm_changed_retrieval=t.changed if mode == "rag" else None,
+        per_class={k: {"n": len(v), "acc": round(sum(v) / len(v), 4)} for k, v in sorted(t.by_class.items())},
+        unsafe=t.unsafe,
+        decisions=t.decisions,
+        changed=t.moved,
+        decisions_right=t.readings_right if any(c.reading for c in cases) else None,
+        is_human_right=round(sum(t.human_right) / len(t.human_right), 4) if t.human_right else None,
+        misses=t.misses,
     )
 
 
