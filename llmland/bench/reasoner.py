@@ -68,80 +68,94 @@ def _scene_captions(stream: str, pool: list[str], drone: int, seq: int, drones: 
     return [pool[(base + (view + i) % WORLD_CAPTIONS) % len(pool)] for i in range(n)]
 
 
+class _FleetReplies:
+    """The specs answering one fleet run's scenes (``episode_id`` = the run's epoch)."""
+
+    def __init__(self, epoch: str) -> None:
+        self.epoch = epoch
+        self.sent: dict[tuple[str, int], float] = {}
+        self.got: dict[str, list[tuple[int, float, float]]] = {}  # drone → (seq, received at, latency ms)
+        self.fallbacks = 0
+        self.lock = threading.Lock()
+        self.measure_from = float("inf")
+
+    def on_spec(self, _k: str, msg: SafetySpecMessage) -> None:
+        now = time.perf_counter()
+        if msg.episode_id != self.epoch:
+            return
+        with self.lock:
+            t0 = self.sent.get((msg.drone_id, msg.seq))
+            if t0 is None or t0 < self.measure_from:
+                return
+            self.got.setdefault(msg.drone_id, []).append((msg.seq, now, (now - t0) * 1e3))
+            self.fallbacks += sum(s.source == "fallback" for s in [msg.scene, *[o.spec for o in msg.objects]])
+
+    def summary(self, p: str, offered: dict[str, int], seconds: float, t_end: float) -> dict[str, Any]:
+        """The figures, keys prefixed ``p`` (see :func:`_fleet`)."""
+        with self.lock:
+            lat = [ms for v in self.got.values() for _, _, ms in v]
+            in_window = sum(1 for v in self.got.values() for _, t, _ in v if t <= t_end)
+            per_drone = {}
+            for drone in sorted(offered, key=lambda x: int(x[1:])):
+                mine = [ms for _, _, ms in self.got.get(drone, [])]
+                per_drone[drone] = {"offered": offered[drone], "served": len(mine),
+                                    "superseded": offered[drone] - len(mine),
+                                    **(percentiles(mine, "scene_to_spec_ms") if mine else {})}
+            out: dict[str, Any] = {
+                f"{p}_scenes_offered": sum(offered.values()),
+                f"{p}_scenes_offered_per_s": round(sum(offered.values()) / seconds, 2),
+                f"{p}_scenes_served": len(lat), f"{p}_scenes_superseded": sum(offered.values()) - len(lat),
+                f"{p}_specs_per_s": round(in_window / seconds, 2),
+                f"{p}_drones_served": sum(1 for v in per_drone.values() if v["served"]),
+                f"{p}_fallback_specs": self.fallbacks,
+                f"{p}_per_drone": per_drone,
+            }
+        if lat:
+            out.update(percentiles(lat, f"{p}_scene_to_spec_ms"))
+        return out
+
+
+def _fleet_scene(stream: str, pool: list[str], d: int, seq: int, drones: int, rate_hz: float,
+                 epoch: str) -> SceneDescription:
+    c = _scene_captions(stream, pool, d, seq, drones)
+    return SceneDescription(
+        drone_id=f"d{d}", stamp=seq / rate_hz, seq=seq, episode_id=epoch,
+        caption=Caption(text=c[0], backend="bench"),
+        objects=[SceneObject(obj_id=f"b{i}", caption=Caption(text=c[i], backend="bench"),
+                             centroid_m=(float(i), 0.0, 0.5), size_m=(0.5, 0.5, 1.0))
+                 for i in range(1, len(c))],
+    )
+
+
 def _fleet(bus: Bus, stream: str, pool: list[str], drones: int = FLEET_DRONES, rate_hz: float = FLEET_RATE_HZ,
            seconds: float = 15.0, warmup_s: float = 0.0) -> dict[str, Any]:
     """Scenes from ``drones`` drones at ``rate_hz`` to the running reasoner for ``warmup_s``
     (not measured) and then ``seconds`` (measured): specs/s, scene→spec latency per drone and
     overall, scenes offered / served / superseded (offered, never answered: a newer scene of
     the same drone was answered instead) and fallback specs among those served."""
-    sent: dict[tuple[str, int], float] = {}
-    got: dict[str, list[tuple[int, float, float]]] = {}  # drone → (seq, received at, latency ms)
-    fallbacks = [0]
-    lock = threading.Lock()
-    measure_from = [float("inf")]
-    epoch = f"{stream}-{time.time_ns()}"
-
-    def on_spec(k: str, msg: SafetySpecMessage) -> None:
-        now = time.perf_counter()
-        if msg.episode_id != epoch:
-            return
-        with lock:
-            t0 = sent.get((msg.drone_id, msg.seq))
-            if t0 is None or t0 < measure_from[0]:
-                return
-            got.setdefault(msg.drone_id, []).append((msg.seq, now, (now - t0) * 1e3))
-            fallbacks[0] += sum(s.source == "fallback" for s in [msg.scene, *[o.spec for o in msg.objects]])
-
-    bus.subscribe(any_drone(Topic.SPEC), SafetySpecMessage, on_spec)
+    replies = _FleetReplies(f"{stream}-{time.time_ns()}")
+    bus.subscribe(any_drone(Topic.SPEC), SafetySpecMessage, replies.on_spec)
     time.sleep(0.5)
     t_start = time.perf_counter()
-    measure_from[0] = t_start + warmup_s
+    replies.measure_from = t_start + warmup_s
     offered: dict[str, int] = {}
     seq = 0
     while time.perf_counter() - t_start < warmup_s + seconds:
         for d in range(drones):
-            drone = f"d{d}"
-            c = _scene_captions(stream, pool, d, seq, drones)
-            scene = SceneDescription(
-                drone_id=drone, stamp=seq / rate_hz, seq=seq, episode_id=epoch,
-                caption=Caption(text=c[0], backend="bench"),
-                objects=[SceneObject(obj_id=f"b{i}", caption=Caption(text=c[i], backend="bench"),
-                                     centroid_m=(float(i), 0.0, 0.5), size_m=(0.5, 0.5, 1.0))
-                         for i in range(1, len(c))],
-            )
+            scene = _fleet_scene(stream, pool, d, seq, drones, rate_hz, replies.epoch)
             now = time.perf_counter()
-            with lock:
-                sent[(drone, seq)] = now
-            if now >= measure_from[0]:
-                offered[drone] = offered.get(drone, 0) + 1
-            bus.publish(key(drone, Topic.SCENE), scene)
+            with replies.lock:
+                replies.sent[(scene.drone_id, seq)] = now
+            if now >= replies.measure_from:
+                offered[scene.drone_id] = offered.get(scene.drone_id, 0) + 1
+            bus.publish(key(scene.drone_id, Topic.SCENE), scene)
         seq += 1
         time.sleep(max(0.0, t_start + seq / rate_hz - time.perf_counter()))
     t_end = time.perf_counter()
     time.sleep(DRAIN_S)
     p = f"reasoner_fleet_{stream}"
-    with lock:
-        lat = [ms for v in got.values() for _, _, ms in v]
-        in_window = sum(1 for v in got.values() for _, t, _ in v if t <= t_end)
-        per_drone = {}
-        for drone in sorted(offered, key=lambda x: int(x[1:])):
-            mine = [ms for _, _, ms in got.get(drone, [])]
-            per_drone[drone] = {"offered": offered[drone], "served": len(mine),
-                                "superseded": offered[drone] - len(mine),
-                                **(percentiles(mine, "scene_to_spec_ms") if mine else {})}
-        out: dict[str, Any] = {
-            f"{p}_drones": drones, f"{p}_warmup_s": warmup_s, f"{p}_seconds": seconds,
-            f"{p}_scenes_offered": sum(offered.values()),
-            f"{p}_scenes_offered_per_s": round(sum(offered.values()) / seconds, 2),
-            f"{p}_scenes_served": len(lat), f"{p}_scenes_superseded": sum(offered.values()) - len(lat),
-            f"{p}_specs_per_s": round(in_window / seconds, 2),
-            f"{p}_drones_served": sum(1 for v in per_drone.values() if v["served"]),
-            f"{p}_fallback_specs": fallbacks[0],
-            f"{p}_per_drone": per_drone,
-        }
-    if lat:
-        out.update(percentiles(lat, f"{p}_scene_to_spec_ms"))
-    return out
+    return {f"{p}_drones": drones, f"{p}_warmup_s": warmup_s, f"{p}_seconds": seconds,
+            **replies.summary(p, offered, seconds, t_end)}
 
 
 def run_fleet(seconds: float = 15.0, flight_warmup_s: float = 20.0) -> dict[str, Any]:
