@@ -73,9 +73,17 @@ def _error_list(exc: RequestValidationError) -> list[dict[str, Any]]:
 
 
 def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: ReasonerSettings) -> FastAPI:
+    """The reasoner's HTTP API (OpenAPI at ``/docs``): health, specs from captions and images, the KB."""
     app = FastAPI(title="LLM-Land reasoner", version="0.1.0", default_response_class=AsciiJSONResponse,
                   description="Captions and images to drone-landing safety specs (RAG + local LLM).")
+    _install_input_checks(app)
+    guarded = [Depends(_bearer_auth(settings))]
+    _add_spec_routes(app, engine, caption_fn, settings, guarded)
+    _add_kb_routes(app, engine, guarded)
+    return app
 
+
+def _install_input_checks(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def invalid(_request: Request, exc: RequestValidationError) -> Response:
         return AsciiJSONResponse({"detail": _error_list(exc)}, status_code=422)
@@ -100,6 +108,10 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
             if problem is not None:
                 return AsciiJSONResponse({"detail": problem}, status_code=422)
         return await call_next(request)
+
+
+def _bearer_auth(settings: ReasonerSettings) -> Callable[..., None]:
+    """The dependency checking ``Authorization: Bearer <api_token>`` (a no-op without a token)."""
     token = settings.api_token.get_secret_value() if settings.api_token else None
 
     def auth(authorization: Annotated[str | None, Header()] = None) -> None:
@@ -109,8 +121,11 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
         if not secrets.compare_digest(given, token):
             raise HTTPException(401, "missing or wrong API token (Authorization: Bearer <token>)")
 
-    guarded = [Depends(auth)]
+    return auth
 
+
+def _add_spec_routes(app: FastAPI, engine: ReasonerEngine, caption_fn: CaptionFn, settings: ReasonerSettings,
+                     guarded: list[Any]) -> None:
     @app.get("/healthz", response_model=Health, tags=["health"])
     def healthz() -> Health:
         status, llm = engine.health()
@@ -133,6 +148,8 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
         result = engine.extract(caption.text)
         return result.model_copy(update={"latency_ms": result.latency_ms + caption.latency_ms})
 
+
+def _add_kb_routes(app: FastAPI, engine: ReasonerEngine, guarded: list[Any]) -> None:
     @app.get("/v1/kb", response_model=KbView, dependencies=guarded, tags=["kb"])
     def get_kb() -> KbView:
         kb = engine.resources.kb
@@ -148,5 +165,3 @@ def create_app(engine: ReasonerEngine, caption_fn: CaptionFn, settings: Reasoner
             raise HTTPException(422, f"invalid KB entry: {reasons}") from None
         except ValueError as exc:
             raise HTTPException(409, str(exc)) from None
-
-    return app
