@@ -25,7 +25,8 @@ from llmland_schemas import (
     vec3,
 )
 
-from .camera import RgbdCamera, release_renderer
+from .camera import RgbdCamera
+from .renderer import release_renderer
 from .scoring import TOUCHDOWN_HEIGHT_M, EpisodeScore
 from .settings import SimSettings
 from .vehicle import DEFAULT_PARAMS, QuadParams, Quadrotor, ReferencePositionController

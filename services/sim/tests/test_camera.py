@@ -11,7 +11,8 @@ import pybullet as p
 import pytest
 from llmland_schemas import CameraIntrinsics
 from llmland_schemas.depth import backproject
-from llmland_sim.camera import SKY_RGB, RgbdCamera, egl_available, prepare_renderer, release_renderer
+from llmland_sim.camera import SKY_RGB, RgbdCamera
+from llmland_sim.renderer import egl_available, prepare_renderer, release_renderer
 from llmland_sim.world import build_world, shapes
 
 logger = logging.getLogger(__name__)

@@ -50,12 +50,12 @@ def build_world(
             (open_field 1, urban 2–3, forest_edge 1–2); the rest of the layout is unchanged.
         renderer: ``"auto"`` / ``"egl"`` first load pybullet's EGL renderer plugin into the
             client when available (it only sees bodies created after it is loaded, see
-            :func:`llmland_sim.camera.prepare_renderer`); ``"tiny"`` skips that.
+            :func:`llmland_sim.renderer.prepare_renderer`); ``"tiny"`` skips that.
     """
     if name not in RECIPES:
         raise ValueError(f"unknown world {name!r}; expected one of {WORLD_NAMES}")
     if renderer != "tiny":
-        from llmland_sim.camera import prepare_renderer
+        from llmland_sim.renderer import prepare_renderer
 
         prepare_renderer(client, renderer)
     world = RECIPES[name](WorldBuilder(client, name, seed), n_pedestrians)
