@@ -168,7 +168,7 @@ class SimService:
                 self._camera_seq = self._publish_frame(mission)
         if due.down_camera(t_s):
             with self.walls.time("camera"):
-                self._down_seq = self._publish_down_frame()
+                self._down_seq = self._publish_down_frame(mission)
 
     def _record_tick(self, state: VehicleState, cmd: ControlCommand | None) -> None:
         """To Rerun, once the planner has answered: recording never competes with its tick."""
@@ -194,14 +194,16 @@ class SimService:
         frame = sim.render_frame(perceive=perceive)
         if clock is not None and perceive:
             clock.on_frame_sent(frame.header.seq, frame.header.stamp)
-        self.bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        self.bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m),
+                               block=mission.clock == "lockstep")
         if self.recorder:
             self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
         return frame.header.seq
 
-    def _publish_down_frame(self) -> int:
+    def _publish_down_frame(self, mission: MissionGoal) -> int:
         frame = self.sim.render_frame(camera="down")
-        self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m))
+        self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m),
+                               block=mission.clock == "lockstep")
         if self.recorder:
             self.recorder.camera_down(frame)
         return frame.header.seq

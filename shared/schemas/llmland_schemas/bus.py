@@ -139,7 +139,7 @@ class Bus:
 
     def __init__(self, settings: ZenohSettings | None = None, session: zenoh.Session | None = None) -> None:
         self.session = session if session is not None else open_session(settings)
-        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._publishers: dict[tuple[str, bool], zenoh.Publisher] = {}
         self._handles: list[Any] = []
         self._lock = threading.Lock()
         self.received: Counter[str] = Counter()
@@ -147,28 +147,40 @@ class Bus:
         self._closed = False
 
     # ------------------------------------------------------------------ publish
-    def publisher(self, key: str, *, express: bool = False,
-                  encoding: zenoh.Encoding | None = None) -> zenoh.Publisher:
+    def publisher(self, key: str, *, express: bool = False, encoding: zenoh.Encoding | None = None,
+                  block: bool = True) -> zenoh.Publisher:
         """The publisher for ``key``, declared on first use (JSON unless told otherwise; each put still
-        names its encoding, so a key used for both kinds stays truthful)."""
+        names its encoding, so a key used for both kinds stays truthful).
+
+        ``block``: when the transmission queue is full, wait (``CongestionControl.BLOCK``) instead of
+        dropping the sample (Zenoh's default for puts, ``DROP``)."""
+        congestion = zenoh.CongestionControl.BLOCK if block else zenoh.CongestionControl.DROP
         with self._lock:
-            pub = self._publishers.get(key)
+            pub = self._publishers.get((key, block))
             if pub is None:
                 pub = self.session.declare_publisher(
-                    key, encoding=encoding or zenoh.Encoding.APPLICATION_JSON, express=express
+                    key, encoding=encoding or zenoh.Encoding.APPLICATION_JSON, express=express,
+                    congestion_control=congestion,
                 )
-                self._publishers[key] = pub
+                self._publishers[(key, block)] = pub
             return pub
 
     def publish(self, key: str, msg: BaseModel, *, express: bool = False) -> None:
         """Publish a message as JSON on ``key`` (``express``: never batched, for control-loop
-        messages whose latency matters more than throughput)."""
+        messages whose latency matters more than throughput). Never dropped under congestion:
+        messages are small and each one counts (a lost command or spec stalls a lockstep episode
+        until a timeout and makes a seeded run differ)."""
         self.publisher(key, express=express).put(encode(msg), encoding=JSON)
 
-    def publish_bytes(self, key: str, payload: bytes, *, encoding: zenoh.Encoding | None = None) -> None:
-        """Publish raw bytes (camera frames: ``application/octet-stream`` unless told otherwise)."""
+    def publish_bytes(self, key: str, payload: bytes, *, encoding: zenoh.Encoding | None = None,
+                      block: bool = False) -> None:
+        """Publish raw bytes (camera frames: ``application/octet-stream`` unless told otherwise).
+
+        ``block``: never drop it under congestion (lockstep frames: the sim waits for the answer to
+        a perceived frame, and the planner for the frame its state names); by default a frame
+        that finds the queue full is dropped, as a live camera's would be."""
         enc = encoding or BINARY
-        self.publisher(key, encoding=enc).put(payload, encoding=enc)
+        self.publisher(key, encoding=enc, block=block).put(payload, encoding=enc)
 
     # ------------------------------------------------------------------ subscribe
     def subscribe(self, key: str, model: type[M], callback: Callable[[str, M], None]) -> None:

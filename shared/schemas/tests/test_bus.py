@@ -3,6 +3,7 @@
 import threading
 
 import pytest
+import zenoh
 from llmland_schemas import Topic, VehicleState, key
 from llmland_schemas.bus import Bus, ZenohSettings, make_config
 
@@ -72,3 +73,30 @@ def test_liveliness(pair):
         if a.alive("llmland/d0/alive/*", 0.5) == {"llmland/d0/alive/test"}:
             return
     pytest.fail("liveliness token not seen")
+
+
+def test_a_slow_subscriber_gets_every_blocking_frame(pair):
+    """Zenoh drops a put that finds its queue full (CongestionControl.DROP, its default): a lockstep
+    frame lost that way left the sim waiting 15 s for a spec that never came, and the episode
+    marked degraded. Lockstep frames and every JSON message block instead; live frames may drop."""
+    import time
+
+    a, b = pair
+    got: list[int] = []
+
+    def slow(_k: str, payload: bytes) -> None:
+        time.sleep(0.03)  # a consumer slower than the producer (a loaded machine)
+        got.append(len(payload))
+
+    k = key("d0", Topic.CAMERA)
+    a.subscribe_parsed(k, lambda x: x, slow)
+    time.sleep(0.5)
+    n = 60
+    for _ in range(n):
+        b.publish_bytes(k, bytes(1_200_000), block=True)  # with block=False about half are dropped
+    deadline = time.monotonic() + 10.0
+    while len(got) < n and time.monotonic() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.3)
+    assert len(got) == n
+    assert b.publisher(k).congestion_control == zenoh.CongestionControl.BLOCK  # JSON publishers block
