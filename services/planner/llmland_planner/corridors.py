@@ -199,7 +199,7 @@ def active_halfspaces(corridor: Corridor | None, k_max: int) -> tuple[FloatArray
         return a_out, b_out
     rows, rhs = corridor.A, corridor.b
     if rows.shape[0] > k_max:
-        log.warning("corridor has %d rows, keeping %d", rows.shape[0], k_max)
+        log.debug("corridor has %d rows, keeping %d", rows.shape[0], k_max)  # expected: once per stage per tick
         mid = np.zeros(3) if corridor.seg_a is None or corridor.seg_b is None else (
             0.5 * (corridor.seg_a + corridor.seg_b))
         keep = np.argsort(rhs - rows @ mid, kind="stable")[:k_max]
