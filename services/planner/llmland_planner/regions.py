@@ -71,6 +71,34 @@ class UnsafeRegion:
         return outside + inside
 
 
+#: Escape directions from inside regions: horizontal both ways and up (never down toward people).
+ESCAPE_DIRECTIONS = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -1.0, 0], [0, 0, 1.0]])
+#: A point this far (m) past a box's face is outside it.
+ESCAPE_EPS_M = 1e-6
+
+
+def escape_distance_m(p: ArrayLike, regions: list[UnsafeRegion]) -> float:
+    """Shortest straight way (m) out of *every* region from ``p (3,)``: along ±x, ±y or +z, the
+    distance to the first point inside none of them (0 when ``p`` is in none; inf if no direction
+    gets out). A start inside overlapping keep-outs (conservative buffers of unknown things) needs
+    this, not the depth in each box alone: leaving one box may land inside the next."""
+    start = np.asarray(p, dtype=float)
+    if not any(r.contains(start) for r in regions):
+        return 0.0
+    best = math.inf
+    for e in ESCAPE_DIRECTIONS:
+        q, travelled = start.copy(), 0.0
+        for _ in range(len(regions) + 1):
+            inside = [r for r in regions if r.contains(q)]
+            if not inside:
+                best = min(best, travelled)
+                break
+            # along e, each box is left where its face across e is passed
+            step = max(float(np.dot(np.where(e > 0, r.hi - q, q - r.lo), np.abs(e))) for r in inside) + ESCAPE_EPS_M
+            q, travelled = q + e * step, travelled + step
+    return best
+
+
 def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer_m: float,
                   z_min: float, velocity_xy: ArrayLike | None = None, horizon_s: float = 0.0,
                   dt_s: float = SWEEP_SLICE_S, *, obj_id: str = "", label: str = "",

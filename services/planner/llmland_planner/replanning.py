@@ -27,7 +27,7 @@ from llmland_schemas.arrays import FloatArray
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .mpc import Halfspaces
 from .path import Path, resample
-from .regions import UnsafeRegion, boxes_array, segments_hit_boxes
+from .regions import UnsafeRegion, boxes_array, escape_distance_m, segments_hit_boxes
 from .search import SearchConfig, plan
 from .settings import PlannerSettings
 
@@ -67,6 +67,19 @@ class _Job:
     result: ActivePlan | None = None
     failed: bool = False
     done: threading.Event = field(default_factory=threading.Event)
+
+
+def start_clearance_m(pos: FloatArray, regions: list[UnsafeRegion]) -> float:
+    """Radius (m) of the start's clearance ball: the shortest way out of every region that holds
+    the vehicle (:func:`~.regions.escape_distance_m`) plus ``START_CLEARANCE_MARGIN_M``, but no
+    farther than the smallest keep-out buffer among them, so the ball never reaches the thing
+    itself; never less than the deepest single region's depth (what it was before)."""
+    inside = [r for r in regions if r.contains(pos)]
+    if not inside:
+        return START_CLEARANCE_MARGIN_M
+    depth = max(-r.signed_distance(pos) for r in inside)
+    escape = min(escape_distance_m(pos, regions), min(r.buffer_m for r in inside))
+    return max(depth, escape) + START_CLEARANCE_MARGIN_M
 
 
 class Replanner:
@@ -162,10 +175,9 @@ class Replanner:
                 z_floor_m: float, budget_scale: int = 1) -> None:
         t0 = time.perf_counter()
         try:
-            # Clearance region at the start (paper App.): if a region has grown over the
-            # vehicle, let the path leave it; the heuristic's penalty φ pushes it out.
-            depth = max((-r.signed_distance(pos) for r in regions if r.contains(pos)), default=0.0)
-            clearance = max(self.search_cfg.clearance_radius_m, depth + START_CLEARANCE_MARGIN_M)
+            # Clearance region at the start (paper App.): if regions have grown over the
+            # vehicle, let the path leave them; the heuristic's penalty φ pushes it out.
+            clearance = max(self.search_cfg.clearance_radius_m, start_clearance_m(pos, regions))
             cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m,
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)

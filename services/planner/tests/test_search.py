@@ -117,3 +117,41 @@ def test_moving_start(v0: list[float]) -> None:
     path = plan(START, np.array(v0), GOAL, [], CFG)
     assert path is not None
     np.testing.assert_allclose(path.v[0], v0)
+
+
+def _box(lo: tuple[float, float, float], hi: tuple[float, float, float], buffer_m: float = 5.0) -> UnsafeRegion:
+    return UnsafeRegion(np.array(lo, dtype=float), np.array(hi, dtype=float), label="unknown", is_dynamic=True,
+                        buffer_m=buffer_m, z_min=5.0)
+
+
+def test_escape_distance_leaves_every_overlapping_region() -> None:
+    from llmland_planner.regions import escape_distance_m
+
+    a = _box((7.2, -13.5, -1.0), (17.6, -3.1, 5.0))
+    b = _box((-2.3, -13.8, -1.0), (8.2, -3.3, 5.0))
+    p = np.array([7.9, -5.6, 3.4])
+    # alone, each box is left within 0.7 m (x faces); together, only up (1.6 m) or +y (2.5 m) leave both
+    assert max(-a.signed_distance(p), -b.signed_distance(p)) == pytest.approx(0.7)
+    assert escape_distance_m(p, [a, b]) == pytest.approx(1.6, abs=1e-5)
+    assert escape_distance_m(np.array([0.0, 0.0, 6.0]), [a, b]) == 0.0
+
+
+def test_a_start_inside_overlapping_keep_outs_has_a_way_out() -> None:
+    """urban seed 27 through the pipeline: two 'unknown' things near the start got the most
+    careful class (5 m buffer, overfly above 5 m); their boxes overlapped around the drone, the
+    start clearance covered the depth in one box only, every search failed and the drone held at
+    its start for the whole 90 s."""
+    from dataclasses import replace
+
+    from llmland_planner.replanning import START_CLEARANCE_MARGIN_M, start_clearance_m
+
+    regions = [_box((7.2, -13.5, -1.0), (17.6, -3.1, 5.0)), _box((-2.3, -13.8, -1.0), (8.2, -3.3, 5.0))]
+    start, goal = np.array([7.9, -5.6, 3.4]), np.array([0.2, 0.1, 3.5])
+    cfg = replace(CFG, workspace_lo=(-20.0, -20.0, -1.0), workspace_hi=(20.0, 20.0, 12.0), z_floor_m=3.1)
+    old = max(-r.signed_distance(start) for r in regions) + START_CLEARANCE_MARGIN_M
+    assert plan(start, np.zeros(3), goal, regions, replace(cfg, clearance_radius_m=old)) is None
+    path = plan(start, np.zeros(3), goal, regions, replace(cfg, clearance_radius_m=start_clearance_m(start, regions)))
+    assert path is not None
+    outside_ball = np.linalg.norm(path.p - start, axis=1) > start_clearance_m(start, regions)
+    assert not np.any(segments_hit_boxes(path.p[:-1][outside_ball[1:]], path.p[1:][outside_ball[1:]],
+                                         np.array([r.lo for r in regions]), np.array([r.hi for r in regions])))
