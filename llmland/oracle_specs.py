@@ -91,27 +91,21 @@ class OracleSpecPublisher:
     def _on_frame(self, _k: str, header: CameraFrameHeader) -> None:
         if not header.perceive:
             return
-        with self._lock:
-            known = header.episode_id in self._table and header.episode_id in self._truth
-            if not known:  # its mission or first truth is still on its way: answer it then
-                self._waiting = [h for h in self._waiting if h.episode_id == header.episode_id][-MAX_WAITING:]
-                self._waiting.append(header)
-                return
-        self._answer(header)
+        with self._lock:  # queued until its episode's mission and truth are known (at once, usually)
+            self._waiting = [h for h in self._waiting if h.episode_id == header.episode_id][1 - MAX_WAITING:]
+            self._waiting.append(header)
+        self._answer_waiting()
 
     def _answer_waiting(self) -> None:
         with self._lock:
-            ready = [h for h in self._waiting if h.episode_id in self._table and h.episode_id in self._truth]
-            self._waiting = [h for h in self._waiting if h not in ready]
-        for header in ready:
-            self._answer(header)
+            ready = [(h, self._table[h.episode_id], self._truth[h.episode_id]) for h in self._waiting
+                     if h.episode_id in self._table and h.episode_id in self._truth]
+            if ready:
+                self._waiting = [h for h in self._waiting if h.episode_id != ready[0][0].episode_id]
+        for header, table, truth in ready:
+            self._answer(header, table, truth)
 
-    def _answer(self, header: CameraFrameHeader) -> None:
-        with self._lock:
-            table = self._table.get(header.episode_id)
-            truth = self._truth.get(header.episode_id)
-        if table is None or truth is None:
-            return
+    def _answer(self, header: CameraFrameHeader, table: dict[str, SafetySpec], truth: GroundTruth) -> None:
         objects = [
             ObjectSpec(obj_id=o.obj_id, centroid_m=o.position_m, size_m=o.size_m, spec=table[o.cls])
             for o in truth.objects

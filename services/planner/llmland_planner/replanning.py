@@ -65,7 +65,6 @@ class _Job:
     goal_m: FloatArray
     wall_s: float = 0.0
     result: ActivePlan | None = None
-    failed: bool = False
     done: threading.Event = field(default_factory=threading.Event)
 
 

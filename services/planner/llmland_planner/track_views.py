@@ -39,7 +39,6 @@ class TrackView:
     human: bool = False
 
 
-
 def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings) -> SafetySpec:
     """The track's spec, or the most conservative class when it has none or it no longer holds.
 
@@ -62,21 +61,28 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
             return SafetySpec.conservative()
     return spec
 
+
 def is_moving(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
-    # Moving = its visible edges move together fast enough now AND it is displaced from where
-    # it was first seen: a static object seen from new angles shifts its visible centroid
-    # (one edge at a time, as more or less of it comes into view), but not by metres.
+    """The motion test every method shares: its visible edges move together faster than
+    ``moving_speed_mps`` now (the rigid velocity) and it is displaced more than
+    ``moving_displacement_m`` from where it was first seen. A still object seen from new angles
+    shifts its visible centroid (one edge at a time, as more or less of it comes into view),
+    but not its edges together, and not by metres."""
     s = settings
     origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
     displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
     return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
 
+
 def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
+    """A person's height (``person_min_height_m`` up to 2 m + slack) and footprint (half
+    diagonal at most ``person_max_radius_m``)."""
     s = settings
     height = float(tr.hi_m[2] - tr.lo_m[2])
     radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
     tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
     return tall_enough and radius <= s.person_max_radius_m
+
 
 def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:
     """How the method sees one track at ``t_s``.

@@ -145,8 +145,8 @@ class ObstacleTracker:
         self.gate_growth_mps = gate_growth_mps
         self.gate_max_m = gate_max_m
         self._tracks: list[TrackedObstacle] = []
+        #: track id → smoothed (2, 3) velocities: the centroid's (row 0) and the rigid one (row 1)
         self._raw_velocity: dict[str, FloatArray] = {}
-        self._raw_rigid_velocity: dict[str, FloatArray] = {}
         #: (track id, camera) → that camera's last observation of the track and its stamp
         self._last_by_source: dict[tuple[str, str], tuple[_Seen, float]] = {}
         self._next_id = 0
@@ -185,7 +185,6 @@ class ObstacleTracker:
                 if track.missed_s > self.forget_after_s or too_long:
                     log.debug("forgetting track %s (missed %.2f s)", track.track_id, track.missed_s)
                     self._raw_velocity.pop(track.track_id, None)
-                    self._raw_rigid_velocity.pop(track.track_id, None)
                     for key in [k for k in self._last_by_source if k[0] == track.track_id]:
                         del self._last_by_source[key]
                     continue
@@ -229,33 +228,27 @@ class ObstacleTracker:
 
     def _correct(self, track: TrackedObstacle, blob: Blob, stamp_s: float, source: str = "") -> None:
         """Fold a matched blob into ``track``: smoothed horizontal velocity, latest bounds."""
-        centroid = np.array(blob.centroid_m, dtype=np.float64)
         seen = _Seen.of(blob)
         prev, prev_t = self._last_by_source.get((track.track_id, source), (_Seen.of_track(track), track.last_seen_s))
         self._last_by_source[(track.track_id, source)] = (seen, stamp_s)
         dt = stamp_s - prev_t
         if dt > 1e-6:
-            sample, rigid = np.zeros(3), np.zeros(3)
-            sample[:2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
-            rigid[:2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
-            self._raw_velocity[track.track_id] = self._smooth(self._raw_velocity.get(track.track_id), sample)
-            self._raw_rigid_velocity[track.track_id] = self._smooth(self._raw_rigid_velocity.get(track.track_id), rigid)
+            sample = np.zeros((2, 3))  # horizontal only: z velocity stays 0
+            sample[0, :2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
+            sample[1, :2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
+            previous = self._raw_velocity.get(track.track_id)
+            a = self.velocity_alpha
+            self._raw_velocity[track.track_id] = sample if previous is None else a * sample + (1.0 - a) * previous
         track.hits += 1
         if source != "down":  # a downward view sees tops; a side view may cut them off
             track.touches_top = blob.touches_top
-        track.centroid_m = centroid
+        track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
         track.last_seen_s = max(track.last_seen_s, stamp_s)
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
-            track.velocity_mps = self._raw_velocity[track.track_id].copy()
-            track.rigid_velocity_mps = self._raw_rigid_velocity[track.track_id].copy()
-
-    def _smooth(self, previous: FloatArray | None, sample: FloatArray) -> FloatArray:
-        """Exponential smoothing with weight ``velocity_alpha`` on the newest sample."""
-        a = self.velocity_alpha
-        return sample if previous is None else a * sample + (1.0 - a) * previous
+            track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
 
     def predict(self, track: TrackedObstacle, t_s: float) -> FloatArray:
         """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""

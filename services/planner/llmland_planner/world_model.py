@@ -73,11 +73,6 @@ def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
     return visible
 
 
-def half_fov_rad(frame: CameraFrame) -> float:
-    """Half of the narrower field of view (rad) of a frame's pinhole camera."""
-    return frame.header.intrinsics.half_fov_rad
-
-
 class WorldModel:
     """Tracks + semantic specs → unsafe regions and possible people, for one episode."""
 
@@ -121,7 +116,7 @@ class WorldModel:
                            max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m, points_world=pts,
                            ground_height_fn=self.ground.height if self.ground is not None else None)
         if frame.header.camera == "down":
-            self.down_half_fov_rad = half_fov_rad(frame)
+            self.down_half_fov_rad = frame.header.intrinsics.half_fov_rad
             self.last_down_stamp_s = frame.header.stamp
         view = (blobs, frustum_fn(frame, s.max_range_m))
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
@@ -134,7 +129,7 @@ class WorldModel:
                 blobs, visible = views[camera]
                 self.tracker.update(blobs, stamp, visible_fn=visible, source=camera)
             self.version += 1
-        self.tracker.mark_moved(self._moving)
+        self.tracker.mark_moved(lambda tr: is_moving(tr, self.settings))
         if self.ground is not None:
             self.ground.commit(t_s)
 
@@ -186,9 +181,6 @@ class WorldModel:
     def spec_for(self, track: TrackedObstacle, t_s: float) -> SafetySpec:
         """The track's spec in force at ``t_s`` (see :func:`.track_views.spec_in_force`)."""
         return spec_in_force(track, t_s, self.settings)
-
-    def _moving(self, tr: TrackedObstacle) -> bool:
-        return is_moving(tr, self.settings)
 
     def view(self, tr: TrackedObstacle, t_s: float) -> TrackView:
         """How the method sees one track at ``t_s`` (see :func:`.track_views.view_track`)."""

@@ -34,7 +34,7 @@ from llmland_schemas import (
     key,
 )
 from llmland_schemas.bus import Bus
-from llmland_schemas.frames import encode_frame
+from llmland_schemas.frames import CameraFrame, encode_frame
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .mailbox import CommandMailbox
@@ -194,19 +194,23 @@ class SimService:
         frame = sim.render_frame(perceive=perceive)
         if clock is not None and perceive:
             clock.on_frame_sent(frame.header.seq, frame.header.stamp)
-        self.bus.publish_bytes(self.k[Topic.CAMERA], encode_frame(frame.header, frame.rgb, frame.depth_m),
-                               block=mission.clock == "lockstep")
+        self._send_frame(Topic.CAMERA, frame, mission)
         if self.recorder:
             self.recorder.camera(frame)  # the arrays, not a decode of what was just encoded
         return frame.header.seq
 
     def _publish_down_frame(self, mission: MissionGoal) -> int:
         frame = self.sim.render_frame(camera="down")
-        self.bus.publish_bytes(self.k[Topic.CAMERA_DOWN], encode_frame(frame.header, frame.rgb, frame.depth_m),
-                               block=mission.clock == "lockstep")
+        self._send_frame(Topic.CAMERA_DOWN, frame, mission)
         if self.recorder:
             self.recorder.camera_down(frame)
         return frame.header.seq
+
+    def _send_frame(self, topic: Topic, frame: CameraFrame, mission: MissionGoal) -> None:
+        """Encode and publish; in lockstep never dropped under congestion (the sim and the
+        planner wait for what a frame starts)."""
+        self.bus.publish_bytes(self.k[topic], encode_frame(frame.header, frame.rgb, frame.depth_m),
+                               block=mission.clock == "lockstep")
 
     def _publish_state(self, mission: MissionGoal) -> VehicleState:
         """This tick's state, with the frames and specs in effect at this tick (lockstep)."""

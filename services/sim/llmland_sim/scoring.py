@@ -107,6 +107,7 @@ class EpisodeScore:
         self.deadline_misses += 1
 
     def observe_spec(self, msg: SafetySpecMessage) -> None:
+        """A spec for this episode: its reported latency, and how many of its objects fell back."""
         self.spec_latencies_ms.append(msg.latency_ms)
         self.fallback_specs += sum(o.spec.source == "fallback" for o in msg.objects)
 
