@@ -1,10 +1,14 @@
 """Unsafe regions as axis-aligned boxes in the world frame (m).
 
 Every obstacle the reasoner flags (a person, a car, a tree) becomes one or more
-:class:`UnsafeRegion` boxes ``[lo, hi]``. A vertical cylinder of radius ``r`` is represented
-by its axis-aligned bounding box, i.e. the square footprint of half-width ``r + buffer_m``:
-boxes keep point/segment tests, signed distances and the corridor separation exact and
-cheap, at the cost of the footprint corners (≈27 % more area than the disc).
+:class:`UnsafeRegion` boxes ``[lo, hi]``. A footprint is given by its half sizes along x and y:
+a still thing's axis-aligned bounds as seen (a long wall stays a long box), or one radius ``r``
+for anything that may turn (a walking person, a driving car: the disc it sweeps when turning
+on the spot), whose axis-aligned bounding box is the square of half-width ``r``. The buffer is
+added along each axis: the box contains every point within ``buffer_m`` (Euclidean) of the
+footprint (the Minkowski sum of a box and a disc lies in the box grown by the radius). Boxes
+keep point/segment tests, signed distances and the corridor separation exact and cheap, at the
+cost of the corners (≈27 % more area than a disc).
 
 Vertical extent: from ``z_ground_m − 1`` (below the ground, so the floor never leaves a gap)
 up to ``max(height_m + min(buffer_m, OVERFLY_CLEARANCE_M), z_min)``: ``z_min`` is the spec's
@@ -99,11 +103,12 @@ def escape_distance_m(p: ArrayLike, regions: list[UnsafeRegion]) -> float:
     return best
 
 
-def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer_m: float,
+def from_obstacle(center_xy: ArrayLike, half_size_m: float | ArrayLike, height_m: float, buffer_m: float,
                   z_min: float, velocity_xy: ArrayLike | None = None, horizon_s: float = 0.0,
                   dt_s: float = SWEEP_SLICE_S, *, obj_id: str = "", label: str = "",
                   z_ground_m: float = 0.0, is_dynamic: bool | None = None) -> list[UnsafeRegion]:
-    """Boxes for a cylindrical obstacle (centre ``(2,)`` m, radius, height above ground).
+    """Boxes for an obstacle: centre ``(2,)`` m, footprint half sizes (a scalar radius, or ``(2,)``
+    half extents along x, y; m), height above ground (m).
 
     Static obstacles (no velocity or ``horizon_s <= 0``) give one box. Dynamic ones give one
     box per slice of ``dt_s`` (at most :data:`MAX_SWEEP_SLICES`, slices widen when capped),
@@ -112,15 +117,17 @@ def from_obstacle(center_xy: ArrayLike, radius_m: float, height_m: float, buffer
     whether the obstacle moves.
     """
     c = np.asarray(center_xy, dtype=float).reshape(2)
-    half = radius_m + buffer_m
+    half = np.broadcast_to(np.asarray(half_size_m, dtype=float), (2,)) + buffer_m
+    if np.any(half < 0.0):
+        raise ValueError(f"obstacle {obj_id!r}: negative half size {half_size_m!r}")
     top = z_ground_m + max(height_m + min(buffer_m, OVERFLY_CLEARANCE_M), z_min)
     bottom = z_ground_m - BELOW_GROUND_M
     vel = None if velocity_xy is None else np.asarray(velocity_xy, dtype=float).reshape(2)
     moving = vel is not None and float(np.linalg.norm(vel)) > 1e-9
     dynamic = moving if is_dynamic is None else is_dynamic
     if not moving or vel is None or horizon_s <= 0.0:
-        return [UnsafeRegion(np.array([c[0] - half, c[1] - half, bottom]),
-                             np.array([c[0] + half, c[1] + half, top]), obj_id, label,
+        return [UnsafeRegion(np.array([c[0] - half[0], c[1] - half[1], bottom]),
+                             np.array([c[0] + half[0], c[1] + half[1], top]), obj_id, label,
                              dynamic, buffer_m, z_min)]
     n = max(1, min(MAX_SWEEP_SLICES, math.ceil(horizon_s / max(dt_s, 1e-6))))
     times = np.linspace(0.0, horizon_s, n + 1)

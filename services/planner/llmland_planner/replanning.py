@@ -181,7 +181,10 @@ class Replanner:
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)
             path = plan(pos, vel, job.goal_m, regions, cfg)
-            if path is not None:
+            if path is None:
+                log.info("no path at t=%.1f s from %s to %s (floor %.1f m): %s", job.t0_s, np.round(pos, 1),
+                         np.round(job.goal_m, 1), z_floor_m, where_blocked(pos, job.goal_m, regions))
+            else:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
                 job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
         except Exception:  # a search bug must not stop the control loop
@@ -221,3 +224,15 @@ class Replanner:
                 self.force_replan = True
                 hs = None
         return ref.p, ref.v, hs
+
+
+def where_blocked(start_m: FloatArray, goal_m: FloatArray, regions: list[UnsafeRegion]) -> str:
+    """For the log when a search fails: the regions holding the start and the goal (label, track,
+    footprint size and top, m)."""
+
+    def holding(p: FloatArray) -> str:
+        inside = [f"{r.label or '?'} {r.obj_id} {r.hi[0] - r.lo[0]:.1f}x{r.hi[1] - r.lo[1]:.1f} to {r.hi[2]:.1f}"
+                  for r in regions if r.contains(p)]
+        return ", ".join(inside) if inside else "none"
+
+    return f"start inside {holding(start_m)}; goal inside {holding(goal_m)}"

@@ -189,24 +189,37 @@ class WorldModel:
     def views(self, t_s: float) -> list[TrackView]:
         return [self.view(tr, t_s) for tr in self.tracker.tracks()]
 
-    def _footprint(self, v: TrackView, t_pred_s: float) -> tuple[FloatArray, float, float, float]:
-        """Centre (2,), radius, height and ground z of a track moved ``t_pred_s`` along its velocity.
+    def _footprint(self, v: TrackView, t_pred_s: float) -> tuple[FloatArray, FloatArray, float, float]:
+        """Centre (2,), footprint half sizes (2,) along x and y, height and ground z of a track moved
+        ``t_pred_s`` along its velocity (m).
 
-        A side view that cut the object at the top leaves its height unknown: tall, unless its
-        class bounds it (a person is never taller than :data:`PERSON_MAX_HEIGHT_M`).
+        A still thing keeps its seen bounds (a long building stays a long box: the square around its
+        half diagonal would reach metres past its sides and may enclose the drone). A thing that
+        may turn (:meth:`_may_turn`) gets the radius of its half diagonal, both ways. A side view
+        that cut the object at the top leaves its height unknown: tall, unless its class bounds it
+        (a person is never taller than :data:`PERSON_MAX_HEIGHT_M`).
         """
         tr = v.track
         shift = tr.velocity_mps[:2] * t_pred_s
         centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2]) + shift
-        radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
+        half = 0.5 * (tr.hi_m[:2] - tr.lo_m[:2])
+        if self._may_turn(v):
+            half = np.full(2, float(np.hypot(*half)))
         height = float(tr.hi_m[2] - tr.lo_m[2])
         if v.human:
-            height, radius = min(height, PERSON_MAX_HEIGHT_M), max(radius, PERSON_BODY_RADIUS_M)
+            height, half = min(height, PERSON_MAX_HEIGHT_M), np.maximum(half, PERSON_BODY_RADIUS_M)
         elif tr.touches_top:
             height = max(height, self.settings.max_altitude_m)
-        return centre, radius, height, float(tr.lo_m[2])
+        return centre, half, height, float(tr.lo_m[2])
 
-    def _yielding_buffer(self, v: TrackView, centre: FloatArray, radius: float, buffer_m: float,
+    def _may_turn(self, v: TrackView) -> bool:
+        """Whether the track's footprint may rotate while the keep-out holds: it moves or has moved
+        (a vehicle or an animal turns only while moving, and then its box is rebuilt every frame),
+        or it may be a person standing (person-sized, or known to be one): people turn on the spot."""
+        tr = v.track
+        return v.moving or tr.has_moved or v.human or person_sized(tr, self.settings)
+
+    def _yielding_buffer(self, v: TrackView, centre: FloatArray, half: FloatArray, buffer_m: float,
                          top_m: float) -> float:
         """The keep-out buffer (m) of a still thing that cannot be overflown, shrunk so that the
         landing disc stays outside it: the target is given, and a tree or a wall next to the pad
@@ -215,8 +228,9 @@ class WorldModel:
         s = self.settings
         if self.target_m is None or v.moving or v.possible_person or top_m < self.target_m[2] + s.cruise_altitude_m:
             return buffer_m
-        d_inf = float(np.max(np.abs(self.target_m[:2] - centre)))  # the box's own (Chebyshev) distance
-        return max(0.0, min(buffer_m, d_inf - radius - s.landing_disc_radius_m))
+        # the footprint's Chebyshev distance to the target: the box grown by b stays that far minus b
+        gap = float(np.max(np.abs(self.target_m[:2] - centre) - half))
+        return max(0.0, min(buffer_m, gap - s.landing_disc_radius_m))
 
     def regions(self, t_s: float) -> list[UnsafeRegion]:
         """The semantic keep-out at ``t_s`` (path and hover point); reads only."""
@@ -225,10 +239,10 @@ class WorldModel:
         for v in self.views(t_s):
             tr = v.track
             dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
-            centre, radius, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
+            centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
             top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
-            buffer_m = self._yielding_buffer(v, centre, radius, v.buffer_m, top)
-            out += from_obstacle(centre, radius, height, buffer_m, v.z_min,
+            buffer_m = self._yielding_buffer(v, centre, half, v.buffer_m, top)
+            out += from_obstacle(centre, half, height, buffer_m, v.z_min,
                                  velocity_xy=tr.velocity_mps[:2] if v.moving else None,
                                  horizon_s=s.sweep_horizon_s if v.moving else 0.0,
                                  obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
@@ -247,12 +261,12 @@ class WorldModel:
         for v in self.views(t_s):
             tr = v.track
             dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
-            centre, radius, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
+            centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
             if v.moving and not v.possible_person:
-                out += from_obstacle(centre, radius, height, v.buffer_m, v.z_min, velocity_xy=tr.velocity_mps[:2],
+                out += from_obstacle(centre, half, height, v.buffer_m, v.z_min, velocity_xy=tr.velocity_mps[:2],
                                      horizon_s=duration_s, obj_id=tr.track_id, label=v.label, z_ground_m=z0)
             else:
-                out += from_obstacle(centre, radius, height, s.landing_clearance_m, 0.0, obj_id=tr.track_id,
+                out += from_obstacle(centre, half, height, s.landing_clearance_m, 0.0, obj_id=tr.track_id,
                                      label=v.label, z_ground_m=z0)
         return out
 
@@ -270,8 +284,8 @@ class WorldModel:
             age = max(0.0, t_s - tr.last_seen_s)
             if not v.possible_person or age > s.recent_observation_s:
                 continue
-            centre, radius, _, _ = self._footprint(v, 0.0)
-            radius = max(radius, PERSON_BODY_RADIUS_M)
+            centre, _, _, _ = self._footprint(v, 0.0)
+            radius = max(float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2]))), PERSON_BODY_RADIUS_M)
             out.append(PersonHypothesis(tr.track_id, centre, radius, float(np.linalg.norm(tr.velocity_mps[:2])),
                                         age, v.label))
         return out

@@ -8,7 +8,7 @@ from llmland_planner.regions import UnsafeRegion, from_obstacle, segment_hits
 
 
 def test_static_obstacle_box() -> None:
-    (r,) = from_obstacle([1.0, 2.0], radius_m=0.3, height_m=1.7, buffer_m=1.0, z_min=3.0,
+    (r,) = from_obstacle([1.0, 2.0], half_size_m=0.3, height_m=1.7, buffer_m=1.0, z_min=3.0,
                          obj_id="p1", label="person")
     np.testing.assert_allclose(r.lo, [-0.3, 0.7, -1.0])
     np.testing.assert_allclose(r.hi, [2.3, 3.3, 3.0])
@@ -61,3 +61,19 @@ def test_segment_hits_agrees_with_dense_sampling() -> None:
         sampled = bool(np.any(np.all((pts >= r.lo) & (pts <= r.hi), axis=1)))
         if sampled:
             assert segment_hits(a, b, r)
+
+
+def test_box_footprint_keeps_its_sides_and_covers_the_buffer() -> None:
+    # a 20 m × 4 m wall: its keep-out is 20 + 2b by 4 + 2b, not the square around its half diagonal
+    (r,) = from_obstacle([0.0, 0.0], half_size_m=[10.0, 2.0], height_m=6.0, buffer_m=1.5, z_min=0.0)
+    np.testing.assert_allclose(r.lo[:2], [-11.5, -3.5])
+    np.testing.assert_allclose(r.hi[:2], [11.5, 3.5])
+    # every point within the buffer (Euclidean) of the footprint is inside: along each side and past each corner
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        on_footprint = rng.uniform([-10.0, -2.0], [10.0, 2.0])
+        angle, dist = rng.uniform(0.0, 2 * np.pi), rng.uniform(0.0, 1.5)
+        p = on_footprint + dist * np.array([np.cos(angle), np.sin(angle)])
+        assert r.contains([p[0], p[1], 1.0])
+    with pytest.raises(ValueError, match="negative half size"):
+        from_obstacle([0.0, 0.0], half_size_m=[-1.0, 2.0], height_m=1.0, buffer_m=0.0, z_min=0.0)

@@ -175,3 +175,38 @@ def test_a_parked_car_coming_into_view_is_not_swept() -> None:
         assert np.linalg.norm(tr.centroid_m[:2] - tr.origin_m[:2]) > PlannerSettings().moving_displacement_m
         assert not wm.view(tr, 1.4).moving, method
         assert len(_regions(wm, 1.4)) == 1, method  # one box: not swept along a motion
+
+
+def _wall_blob(lo: list[float], hi: list[float]) -> Blob:
+    a, b = np.array(lo), np.array(hi)
+    return Blob(blob_id=0, centroid_m=(a + b) / 2, mean_m=(a + b) / 2, lo_m=a, hi_m=b, size_m=b - a,
+                n_points=400, bbox_px=(0, 0, 40, 10), footprint_radius_m=float(np.hypot(*(b - a)[:2]) / 2))
+
+
+def test_a_long_building_keeps_a_long_box_that_leaves_the_start_outside() -> None:
+    # Urban, through the pipeline: a 24 m × 5 m building beside the start got the square around
+    # its half diagonal (12.3 m + buffer), which enclosed the drone 6 m off its long side and left
+    # the search without a start. A still thing keeps the sides it was seen with, plus its buffer.
+    start = np.array([0.0, -1.0, 3.0])
+    for method in ("llm-land", "baseline", "conservative"):
+        wm = WorldModel(PlannerSettings(), method)
+        wm.tracker.update([_wall_blob([-12.0, 5.0, 0.0], [12.0, 10.0, 8.0])], 0.0)
+        (box,) = wm.regions(0.0)
+        buffer_m = box.buffer_m
+        np.testing.assert_allclose(box.lo[:2], [-12.0 - buffer_m, 5.0 - buffer_m])
+        np.testing.assert_allclose(box.hi[:2], [12.0 + buffer_m, 10.0 + buffer_m])
+        assert not box.contains(start), method
+
+
+def test_a_possible_person_keeps_the_turning_radius_both_ways() -> None:
+    # a person standing still may turn (arms out, carrying a board): the half diagonal both ways
+    for method, blob_lo, blob_hi in (("llm-land", [4.0, -0.2, 0.0], [5.6, 0.2, 1.7]),  # a known person
+                                     ("baseline", [4.0, -0.2, 0.0], [5.1, 0.2, 1.7])):  # person-sized
+        wm = WorldModel(PlannerSettings(), method)
+        wm.tracker.update([_wall_blob(blob_lo, blob_hi)], 0.0)
+        msg = _person_spec(0.0, 0.0)
+        msg.objects[0].spec = msg.objects[0].spec.model_copy(update={"is_human": True})
+        wm.on_spec(msg)
+        (box,) = _regions(wm, 0.0)
+        radius = 0.5 * float(np.hypot(*(np.subtract(blob_hi, blob_lo)[:2])))
+        np.testing.assert_allclose(box.hi[:2] - box.lo[:2], 2 * (radius + box.buffer_m))
