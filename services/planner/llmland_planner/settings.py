@@ -41,6 +41,9 @@ class PlannerSettings(BaseSettings):
     moving_displacement_m: float = 1.0
     #: out of view, constant-velocity prediction is trusted this long (s)
     predict_cap_s: float = PREDICT_CAP_S
+    #: a thing that has moved and has not been seen for this long (s) is no longer where it was
+    #: seen: it leaves the path keep-out (not the hard limit's people, nor the landing disc check)
+    moved_unseen_keepout_s: float = PREDICT_CAP_S + FORGET_AFTER_S
     #: a track and a blob this close (m) are associated
     track_gate_m: float = GATE_M
     #: a track that should have been seen but was not is dropped after this long (s)

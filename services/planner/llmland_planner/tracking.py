@@ -26,6 +26,8 @@ after it was last seen. Without ``visible_fn`` every track is assumed visible.
 from __future__ import annotations
 
 import logging
+import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -56,6 +58,11 @@ PREDICT_CAP_S = 1.0
 GATE_GROWTH_MPS = 1.5
 GATE_MAX_M = 5.0
 GATE_HEIGHT_ALIKE_M = 0.4
+#: Sightings kept per track (10 Hz forward + 5 Hz downward frames: ≈ 4 s, longer than a spec's
+#: measured latency here).
+SIGHTINGS_KEPT = 64
+#: A sighting this close in time (s) to a frame's stamp was made from that frame's instant.
+SAME_INSTANT_S = 1e-3
 
 
 def _minmod(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -111,6 +118,9 @@ class TrackedObstacle:
     spec: AttachedSpec | None = None
     #: (3,) horizontal velocity (m/s) both visible edges agree on (see the module docstring)
     rigid_velocity_mps: FloatArray = field(default_factory=lambda: np.zeros(3))
+    #: the newest sightings ``(stamp s, centroid (3,) m)``, every camera: what a spec computed from
+    #: an older frame is matched against (the thing may have moved since)
+    sightings: deque[tuple[float, FloatArray]] = field(default_factory=lambda: deque(maxlen=SIGHTINGS_KEPT))
 
 
 class ObstacleTracker:
@@ -223,6 +233,7 @@ class ObstacleTracker:
             touches_top=blob.touches_top and source != "down",
         )
         self._last_by_source[(track.track_id, source)] = (_Seen.of(blob), stamp_s)
+        track.sightings.append((stamp_s, track.centroid_m.copy()))
         self._next_id += 1
         return track
 
@@ -231,6 +242,7 @@ class ObstacleTracker:
         seen = _Seen.of(blob)
         prev, prev_t = self._last_by_source.get((track.track_id, source), (_Seen.of_track(track), track.last_seen_s))
         self._last_by_source[(track.track_id, source)] = (seen, stamp_s)
+        track.sightings.append((stamp_s, np.array(blob.centroid_m, dtype=np.float64)))
         dt = stamp_s - prev_t
         if dt > 1e-6:
             sample = np.zeros((2, 3))  # horizontal only: z velocity stays 0
@@ -290,7 +302,21 @@ class ObstacleTracker:
         i = int(np.argmin(dist))
         return self._tracks[i] if dist[i] <= max_dist_m else None
 
-    def match_all(self, position_m: Sequence[float] | FloatArray, radius_m: float) -> list[TrackedObstacle]:
-        """Every live track (not copies) whose last-seen centroid is within ``radius_m`` horizontally."""
-        p = np.asarray(position_m, dtype=np.float64)[:2]
-        return [t for t in self._tracks if float(np.linalg.norm(t.centroid_m[:2] - p)) <= radius_m]
+    def match_all(self, position_m: Sequence[float] | FloatArray, radius_m: float,
+                  stamp_s: float | None = None) -> list[TrackedObstacle]:
+        """Every live track (not copies) within ``radius_m`` horizontally of ``position_m`` (3,):
+        where it was seen at ``stamp_s`` (see :func:`distance_at`), else where it was last seen."""
+        return [t for t in self._tracks if distance_at(t, position_m, stamp_s) <= radius_m]
+
+
+def distance_at(track: TrackedObstacle, position_m: Sequence[float] | FloatArray, stamp_s: float | None) -> float:
+    """Horizontal distance (m) from ``position_m`` to the track where it was seen at ``stamp_s`` (the
+    nearest of that instant's sightings: two cameras see different surfaces), or, when it was not
+    seen then (``None``, born later, sighting dropped), to its last-seen centroid.
+
+    A spec describes an object as seen in one frame and arrives a latency later; a thing that moves
+    meanwhile (a car at 8 m/s, 0.5 s: 4 m) is then far from that position, but it was there then.
+    """
+    p = np.asarray(position_m, dtype=np.float64)[:2]
+    then = [] if stamp_s is None else [c for t, c in track.sightings if abs(t - stamp_s) <= SAME_INSTANT_S]
+    return min((float(np.linalg.norm(c[:2] - p)) for c in then or [track.centroid_m]), default=math.inf)
