@@ -220,6 +220,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_up_parser(sub)
     _add_mission_parser(sub)
     _add_bench_parser(sub)
+    _add_ceiling_parser(sub)
     add_view_parser(sub)
     return parser
 
@@ -301,6 +302,40 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)
+
+
+def _add_ceiling_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    ceiling = sub.add_parser("ceiling", help="per seed, when the hard-limit gate would open with perfect perception "
+                                             "(no method that keeps the limit can land where it never does)")
+    ceiling.add_argument("--worlds", default=",".join(WORLDS), help="comma-separated")
+    ceiling.add_argument("--seeds", default="1-50", help="e.g. 1-50 or 1,4,7-9")
+    ceiling.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    ceiling.add_argument("--json", action="store_true", help="print the summary as JSON")
+    ceiling.set_defaults(func=cmd_ceiling)
+
+
+def cmd_ceiling(args: argparse.Namespace) -> int:
+    from llmland_planner.settings import PlannerSettings
+
+    from .ceiling import seed_ceiling, summary
+
+    settings = PlannerSettings()
+    rows = []
+    with _stdout_to_stderr():  # pybullet prints to fd 1
+        for world in args.worlds.split(","):
+            for seed in _parse_seeds(args.seeds):
+                row = seed_ceiling(world, seed, args.timeout, settings)
+                rows.append(row)
+                opens = "never opens" if row.first_open_s is None else f"first opens at {row.first_open_s:.1f} s"
+                log.info("%s seed %d: the gate %s (open %.0f %% of the time; closest person %.1f m)",
+                         world, seed, opens, 100 * row.open_fraction, row.closest_person_m)
+    figures = summary(rows, args.timeout, settings)
+    if args.json:
+        sys.stdout.write(json.dumps(figures, indent=2) + "\n")
+    else:
+        for k, v in figures.items():
+            sys.stdout.write(f"{k:20s} {v}\n")
+    return 0
 
 
 def _interrupt_on_sigterm(_signum: int, _frame: object) -> None:
