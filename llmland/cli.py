@@ -9,7 +9,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -179,12 +179,17 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
     with _stdout_to_stderr():  # C libraries (EGL, pybullet) print to fd 1: keep the JSON clean
         figures = bench.run(args.what, quick=args.quick)
-    if args.json:
+    _print_figures(figures, as_json=args.json)
+    return 0
+
+
+def _print_figures(figures: Mapping[str, object], *, as_json: bool) -> None:
+    """A flat mapping to stdout: JSON, or one ``name value`` line each."""
+    if as_json:
         sys.stdout.write(json.dumps(figures, indent=2) + "\n")
     else:
         for k, v in figures.items():
             sys.stdout.write(f"{k:40s} {v}\n")
-    return 0
 
 
 def _episode_args(p: argparse.ArgumentParser) -> None:
@@ -329,12 +334,7 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
                 opens = "never opens" if row.first_open_s is None else f"first opens at {row.first_open_s:.1f} s"
                 log.info("%s seed %d: the gate %s (open %.0f %% of the time; closest person %.1f m)",
                          world, seed, opens, 100 * row.open_fraction, row.closest_person_m)
-    figures = summary(rows, args.timeout, settings)
-    if args.json:
-        sys.stdout.write(json.dumps(figures, indent=2) + "\n")
-    else:
-        for k, v in figures.items():
-            sys.stdout.write(f"{k:20s} {v}\n")
+    _print_figures(summary(rows, args.timeout, settings), as_json=args.json)
     return 0
 
 
