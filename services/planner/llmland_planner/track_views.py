@@ -64,13 +64,13 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
 
 def is_moving(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
     """The motion test every method shares: its visible edges move together faster than
-    ``moving_speed_mps`` now (the rigid velocity) and it is displaced more than
-    ``moving_displacement_m`` from where it was first seen. A still object seen from new angles
-    shifts its visible centroid (one edge at a time, as more or less of it comes into view),
-    but not its edges together, and not by metres."""
+    ``moving_speed_mps`` now (the rigid velocity) and, summed over its views, they have carried it
+    more than ``moving_displacement_m`` (the rigid displacement). A still object seen from new
+    angles shifts its visible centroid (one edge at a time, as more or less of it comes into
+    view), now and then both edges for one frame (a tree's crown and trunk seen in turn), but it
+    does not travel metres: those shifts go back and forth and cancel in the sum."""
     s = settings
-    origin = tr.centroid_m if tr.origin_m is None else tr.origin_m
-    displaced = float(np.linalg.norm(tr.centroid_m[:2] - origin[:2])) > s.moving_displacement_m
+    displaced = tr.rigid_displacement_m > s.moving_displacement_m
     return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
 
 

@@ -58,8 +58,8 @@ PREDICT_CAP_S = 1.0
 GATE_GROWTH_MPS = 1.5
 GATE_MAX_M = 5.0
 GATE_HEIGHT_ALIKE_M = 0.4
-#: Sightings kept per track (10 Hz forward + 5 Hz downward frames: ≈ 4 s, longer than a spec's
-#: measured latency here).
+#: Sightings kept per track (the sim's 5 Hz forward + 5 Hz downward frames: ≈ 6 s, longer than
+#: a spec's measured latency here; an older spec falls back to the last-seen centroid).
 SIGHTINGS_KEPT = 64
 #: A sighting this close in time (s) to a frame's stamp was made from that frame's instant.
 SAME_INSTANT_S = 1e-3
@@ -108,7 +108,6 @@ class TrackedObstacle:
     hits: int = 1
     missed_s: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
-    origin_m: FloatArray | None = None  # centroid when first seen (tells real motion from view changes)
     #: the last side view cut it at the top of the image: its top is unknown (at least ``hi_m[2]``)
     touches_top: bool = False
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
@@ -121,6 +120,14 @@ class TrackedObstacle:
     #: the newest sightings ``(stamp s, centroid (3,) m)``, every camera: what a spec computed from
     #: an older frame is matched against (the thing may have moved since)
     sightings: deque[tuple[float, FloatArray]] = field(default_factory=lambda: deque(maxlen=SIGHTINGS_KEPT))
+    #: per camera, the horizontal displacement (3,) m both visible edges agreed on, summed over
+    #: consecutive views: how far the body travelled (view changes and jitter cancel out)
+    rigid_travel_m: dict[str, FloatArray] = field(default_factory=dict)
+
+    @property
+    def rigid_displacement_m(self) -> float:
+        """How far (m) the track has travelled as a rigid body, by the camera that saw the most."""
+        return max((float(np.linalg.norm(d[:2])) for d in self.rigid_travel_m.values()), default=0.0)
 
 
 class ObstacleTracker:
@@ -229,7 +236,6 @@ class ObstacleTracker:
             velocity_mps=np.zeros(3),
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
-            origin_m=np.array(blob.centroid_m, dtype=np.float64),
             touches_top=blob.touches_top and source != "down",
         )
         self._last_by_source[(track.track_id, source)] = (_Seen.of(blob), stamp_s)
@@ -248,6 +254,7 @@ class ObstacleTracker:
             sample = np.zeros((2, 3))  # horizontal only: z velocity stays 0
             sample[0, :2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
             sample[1, :2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
+            track.rigid_travel_m[source] = track.rigid_travel_m.get(source, np.zeros(3)) + sample[1] * dt
             previous = self._raw_velocity.get(track.track_id)
             a = self.velocity_alpha
             self._raw_velocity[track.track_id] = sample if previous is None else a * sample + (1.0 - a) * previous
