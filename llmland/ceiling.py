@@ -51,15 +51,17 @@ def gate_duration_s(settings: PlannerSettings) -> float:
         + s.touchdown_dwell_s
 
 
-def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSettings) -> SeedCeiling:
-    """Replay ``world``/``seed``'s people for ``timeout_s`` and run the gate on their true states."""
+def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSettings,
+                 n_pedestrians: int | None = None) -> SeedCeiling:
+    """Replay ``world``/``seed``'s people (``n_pedestrians``: the world's default when None) for
+    ``timeout_s`` and run the gate on their true states."""
     s = settings
     bounds = HumanMotionBounds(s.human_max_speed_mps, s.human_step_speed_mps, s.human_max_accel_mps2,
                                s.human_speed_error_mps)
     duration = gate_duration_s(s)
     client = p.connect(p.DIRECT)
     try:
-        w = build_world(client, world, seed)
+        w = build_world(client, world, seed, n_pedestrians=n_pedestrians)
         target = np.asarray(w.target_m, dtype=float)[:2]
         people = [o for o in w.objects if o.cls == "person" and o.actor is not None]
         first, n_open, n, closest, t = None, 0, 0, math.inf, 0.0

@@ -315,6 +315,8 @@ def _add_ceiling_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
     ceiling.add_argument("--worlds", default=",".join(WORLDS), help="comma-separated")
     ceiling.add_argument("--seeds", default="1-50", help="e.g. 1-50 or 1,4,7-9")
     ceiling.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    ceiling.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the "
+                                                                         "world's; exp 1 flies 1)")
     ceiling.add_argument("--json", action="store_true", help="print the summary as JSON")
     ceiling.set_defaults(func=cmd_ceiling)
 
@@ -329,7 +331,7 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
     with _stdout_to_stderr():  # pybullet prints to fd 1
         for world in args.worlds.split(","):
             for seed in _parse_seeds(args.seeds):
-                row = seed_ceiling(world, seed, args.timeout, settings)
+                row = seed_ceiling(world, seed, args.timeout, settings, args.pedestrians)
                 rows.append(row)
                 opens = "never opens" if row.first_open_s is None else f"first opens at {row.first_open_s:.1f} s"
                 log.info("%s seed %d: the gate %s (open %.0f %% of the time; closest person %.1f m)",
