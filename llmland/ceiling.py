@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
-from llmland_planner.descent import DescentProfile
-from llmland_planner.hard_limit import PERSON_BODY_RADIUS_M, HumanMotionBounds, PersonHypothesis, commit_clearance
+from llmland_planner.hard_limit import PERSON_BODY_RADIUS_M, PersonHypothesis, commit_clearance
+from llmland_planner.landing import LandingLogic
 from llmland_planner.settings import PlannerSettings
 from llmland_sim.world.worlds import build_world
 
@@ -43,12 +43,8 @@ class SeedCeiling:
 
 
 def gate_duration_s(settings: PlannerSettings) -> float:
-    """Time (s) within reach for a descent from the hover height: the gate's own duration."""
-    s = settings
-    profile = DescentProfile(s.descent_speed_mps, s.descent_accel_mps2, s.descent_brake_mps2,
-                             s.descent_touchdown_speed_mps)
-    return profile.time_to_touchdown_s(s.cruise_altitude_m, 0.0, s.touchdown_height_m) + s.descent_time_margin_s \
-        + s.touchdown_dwell_s
+    """Time (s) within reach for a descent from the hover height, at rest: the gate's own duration."""
+    return LandingLogic(np.zeros(3), settings).descent_duration_s(settings.cruise_altitude_m, 0.0)
 
 
 def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSettings,
@@ -56,8 +52,7 @@ def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSetti
     """Replay ``world``/``seed``'s people (``n_pedestrians``: the world's default when None) for
     ``timeout_s`` and run the gate on their true states."""
     s = settings
-    bounds = HumanMotionBounds(s.human_max_speed_mps, s.human_step_speed_mps, s.human_max_accel_mps2,
-                               s.human_speed_error_mps)
+    bounds = LandingLogic(np.zeros(3), s).bounds  # the gate's motion bounds, built from the settings
     duration = gate_duration_s(s)
     client = p.connect(p.DIRECT)
     try:

@@ -123,6 +123,13 @@ class LandingLogic:
             raise ValueError(f"cruise_altitude_m must be >= {REACH_CEILING_M + ARRIVE_HEIGHT_TOL_M} m "
                              "(above everyone's reach with a tracking margin)")
 
+    def descent_duration_s(self, height_m: float, sink_mps: float) -> float:
+        """Time (s) the vehicle stays within reach for the rest of a descent from ``height_m`` sinking
+        at ``sink_mps``: the profile's time to touchdown, the tracking lag margin, the touchdown dwell."""
+        s = self.settings
+        return (self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m)
+                + s.descent_time_margin_s + s.touchdown_dwell_s)
+
     def gate(self, height_m: float, sink_mps: float, around: Surroundings, *, committed: bool = False) -> GateDecision:
         """The hard-limit gate for the rest of a descent from ``height_m`` sinking at ``sink_mps``.
 
@@ -132,8 +139,7 @@ class LandingLogic:
         vehicle sinks, so it is not re-evaluated. Everyone tracked is re-checked.
         """
         s = self.settings
-        duration = (self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m)
-                    + s.descent_time_margin_s + s.touchdown_dwell_s)
+        duration = self.descent_duration_s(height_m, sink_mps)
         coverage = around.coverage_m if s.require_coverage and not committed else float("inf")
         clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
                                      frame_period_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m)

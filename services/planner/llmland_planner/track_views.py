@@ -79,9 +79,8 @@ def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
     diagonal at most ``person_max_radius_m``)."""
     s = settings
     height = float(tr.hi_m[2] - tr.lo_m[2])
-    radius = float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2])))
     tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
-    return tall_enough and radius <= s.person_max_radius_m
+    return tall_enough and tr.half_diagonal_m <= s.person_max_radius_m
 
 
 def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:

@@ -125,6 +125,17 @@ class TrackedObstacle:
     rigid_travel_m: dict[str, FloatArray] = field(default_factory=dict)
 
     @property
+    def half_extent_m(self) -> FloatArray:
+        """Half sizes (2,) m of the seen footprint along x and y."""
+        result: FloatArray = 0.5 * (self.hi_m[:2] - self.lo_m[:2])
+        return result
+
+    @property
+    def half_diagonal_m(self) -> float:
+        """Half the seen footprint's diagonal (m): the radius it sweeps turning on the spot."""
+        return float(np.hypot(*self.half_extent_m))
+
+    @property
     def rigid_displacement_m(self) -> float:
         """How far (m) the track has travelled as a rigid body, by the camera that saw the most."""
         return max((float(np.linalg.norm(d[:2])) for d in self.rigid_travel_m.values()), default=0.0)
@@ -310,10 +321,12 @@ class ObstacleTracker:
         return self._tracks[i] if dist[i] <= max_dist_m else None
 
     def match_all(self, position_m: Sequence[float] | FloatArray, radius_m: float,
-                  stamp_s: float | None = None) -> list[TrackedObstacle]:
-        """Every live track (not copies) within ``radius_m`` horizontally of ``position_m`` (3,):
-        where it was seen at ``stamp_s`` (see :func:`distance_at`), else where it was last seen."""
-        return [t for t in self._tracks if distance_at(t, position_m, stamp_s) <= radius_m]
+                  stamp_s: float | None = None) -> list[tuple[TrackedObstacle, float]]:
+        """Every live track (not copies) within ``radius_m`` horizontally of ``position_m`` (3,), with
+        its distance (m): where it was seen at ``stamp_s`` (see :func:`distance_at`), else where it
+        was last seen."""
+        found = ((t, distance_at(t, position_m, stamp_s)) for t in self._tracks)
+        return [(t, d) for t, d in found if d <= radius_m]
 
 
 def distance_at(track: TrackedObstacle, position_m: Sequence[float] | FloatArray, stamp_s: float | None) -> float:

@@ -48,7 +48,7 @@ from .track_views import (
     spec_in_force,
     view_track,
 )
-from .tracking import ObstacleTracker, TrackedObstacle, VisibleFn, distance_at
+from .tracking import ObstacleTracker, TrackedObstacle, VisibleFn
 
 log = logging.getLogger(__name__)
 
@@ -166,8 +166,9 @@ class WorldModel:
         # there says nothing about them.
         batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
         for s in due:
-            for track in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m), s.stamp_s):
-                direct = distance_at(track, s.position_m, s.stamp_s) <= self.settings.spec_match_m
+            for track, dist in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m),
+                                                      s.stamp_s):
+                direct = dist <= self.settings.spec_match_m
                 spec = s.spec
                 if not direct and person_sized(track, self.settings):
                     spec = more_careful(self.spec_for(track, t_s), spec)
@@ -201,11 +202,8 @@ class WorldModel:
         (a person is never taller than :data:`PERSON_MAX_HEIGHT_M`).
         """
         tr = v.track
-        shift = tr.velocity_mps[:2] * t_pred_s
-        centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2]) + shift
-        half = 0.5 * (tr.hi_m[:2] - tr.lo_m[:2])
-        if self._may_turn(v):
-            half = np.full(2, float(np.hypot(*half)))
+        centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2]) + tr.velocity_mps[:2] * t_pred_s
+        half = np.full(2, tr.half_diagonal_m) if self._may_turn(v) else tr.half_extent_m
         height = float(tr.hi_m[2] - tr.lo_m[2])
         if v.human:
             height, half = min(height, PERSON_MAX_HEIGHT_M), np.maximum(half, PERSON_BODY_RADIUS_M)
@@ -295,8 +293,8 @@ class WorldModel:
             age = max(0.0, t_s - tr.last_seen_s)
             if not v.possible_person or age > s.recent_observation_s:
                 continue
-            centre, _, _, _ = self._footprint(v, 0.0)
-            radius = max(float(0.5 * np.hypot(*(tr.hi_m[:2] - tr.lo_m[:2]))), PERSON_BODY_RADIUS_M)
+            centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2])
+            radius = max(tr.half_diagonal_m, PERSON_BODY_RADIUS_M)
             out.append(PersonHypothesis(tr.track_id, centre, radius, float(np.linalg.norm(tr.velocity_mps[:2])),
                                         age, v.label))
         return out
