@@ -4,10 +4,11 @@ caption would get alone (``pipeline.run_*``), with the work that batches done in
 For ``rag`` and ``retrieval``, in order:
 
 1. retrieval for every caption, their query vectors in one MiniLM call;
-2. rag's LLM pointer for every caption in one request to the LLM (one round trip to the
-   worker process; :func:`~.llm.score_many`);
-3. the mentions of every caption, and one MiniLM call for every window not seen before
-   (the LLM pointer's windows and the windows of mentions not in the mention cache);
+2. the mentions of every caption, and one MiniLM call for every window not seen before
+   (the windows rag's pointer can choose and the windows of mentions not in the mention cache);
+3. rag: the captions whose spec no answer of the LLM can change are answered by the rules
+   (:func:`~.rag.unanimous_answer`); the LLM pointer for all the others in one request to the
+   LLM (one round trip to the worker process; :func:`~.llm.score_many`);
 4. the rest caption by caption (grounding from the mention cache, the decider, the most
    careful mention): cheap once 1–3 are done.
 
@@ -25,9 +26,9 @@ from functools import partial
 from .decide import Decider
 from .kb import KbEntry
 from .llm import score_many
-from .mention import caption_words, choose_mention, content_positions
 from .mentions import Found
-from .pipeline import Outcome, finish_rag, rag_request, run_llm, run_retrieval
+from .pipeline import Outcome, run_llm, run_retrieval
+from .rag import finish_rag, pointer_windows, rag_request, unanimous_answer
 from .resources import Resources
 from .safety import uncached_windows
 from .settings import Mode, ReasonerSettings
@@ -49,24 +50,31 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
     except Exception as exc:  # noqa: BLE001 - every caption of the batch falls back
         log.warning("batched retrieval failed for %d captions: %s", len(captions), exc)
         return [exc] * len(captions)
-    logprobs: list[list[float] | None] = [None] * len(captions)
     pointer = settings.rag_pointer
-    if mode == "rag" and pointer == "llm":
+    asks_llm = mode == "rag" and pointer == "llm"
+    found = _find_and_prefetch(captions, hits, res, settings.every_mention, asks_llm)
+    logprobs: list[list[float] | None] = [None] * len(captions)
+    known: list[Outcome | None] = [None] * len(captions)
+    if asks_llm:
         if res.backend is None:
             return [RuntimeError("rag needs the LLM")] * len(captions)
-        asked = [k for k, h in enumerate(hits) if h]
+        if settings.every_mention and settings.rag_llm_when_needed:
+            known = [_unanimous(captions[k], hits[k], res, found[k]) for k in range(len(captions))]
+        asked = [k for k, h in enumerate(hits) if h and known[k] is None]
         try:
             answers = score_many(res.backend, [rag_request(captions[k], hits[k], settings.rag_context_in_prompt)
-                                               for k in asked])
-        except Exception as exc:  # noqa: BLE001 - a worker lost mid-batch: every caption falls back
+                                               for k in asked]) if asked else []
+        except Exception as exc:  # noqa: BLE001 - a worker lost mid-batch: every caption that asked falls back
             log.warning("batched LLM call failed for %d captions: %s", len(asked), exc)
-            return [exc] * len(captions)
+            return [done if done is not None else exc for done in known]
         for k, a in zip(asked, answers, strict=True):
             logprobs[k] = a
-    found = _find_and_prefetch(captions, hits, logprobs, res, settings.every_mention)
     out: list[Result] = []
     for k, caption in enumerate(captions):
-        if mode == "retrieval":
+        done = known[k]
+        if done is not None:
+            out.append(done)
+        elif mode == "retrieval":
             out.append(_guard(partial(run_retrieval, caption, res, settings.every_mention, hits[k], found[k])))
         else:
             out.append(_guard(partial(finish_rag, caption, hits[k], logprobs[k], res, pointer, settings.every_mention,
@@ -74,18 +82,30 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
     return out
 
 
-def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, float]]],
-                       logprobs: list[list[float] | None], res: Resources,
-                       every_mention: bool) -> list[list[Found] | None]:
+def _unanimous(caption: str, hits: list[tuple[KbEntry, float]], res: Resources,
+               found: list[Found] | None) -> Outcome | None:
+    """:func:`~.rag.unanimous_answer`, None (ask the LLM) where it fails: the caption's own
+    step 4 then meets the error again."""
+    if found is None:
+        return None
+    try:
+        return unanimous_answer(caption, hits, res, found)
+    except Exception as exc:  # noqa: BLE001 - the LLM is asked instead
+        log.debug("no rules answer for %r: %s", caption, exc)
+        return None
+
+
+def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, float]]], res: Resources,
+                       every_mention: bool, pointer: bool) -> list[list[Found] | None]:
     """Each caption's mentions (None where finding failed: step 4 then finds them itself and
-    reports the error), and one embedding call for every window step 4 will need."""
+    reports the error), and one embedding call for every window steps 3 and 4 will need
+    (with ``pointer``, every window rag's LLM pointer can choose)."""
     found: list[list[Found] | None] = [None] * len(captions)
     windows: list[str] = []
     for k, caption in enumerate(captions):
         try:
-            if logprobs[k] is not None and hits[k]:
-                words = caption_words(caption)
-                windows.append(choose_mention(words, content_positions(words), logprobs[k] or []).window)
+            if pointer and hits[k]:
+                windows += pointer_windows(caption)
             if every_mention and res.finder is not None:
                 found[k] = res.finder.find(caption)
                 windows += uncached_windows(caption, found[k] or [], res.kb, res.mention_cache)

@@ -90,6 +90,8 @@ class EvalReport(BaseModel):
     load_s: dict[str, float]
     peak_rss_mb: float
     llm_changed_retrieval: int | None = None  # rag: how often the LLM's pick differs from retrieval's top-1
+    #: rag: captions for which the LLM's pointer was asked (the others: no answer could change the spec)
+    llm_asked: int | None = None
     #: accuracy (both fields right) per class of the caption's most careful thing
     per_class: dict[str, dict[str, float]] = {}
     #: a person, animal or vehicle answered static when it moves, or with a smaller buffer than its class
@@ -182,6 +184,7 @@ class _Tally:
     ok_both: int = 0
     fallbacks: int = 0
     changed: int = 0
+    asked: int = 0
     unsafe: int = 0
     decisions: int = 0
     moved: int = 0
@@ -203,6 +206,7 @@ class _Tally:
         self.unsafe += bad
         self.fallbacks += spec.source == "fallback"
         self.changed += bool(first.phrase) and spec.evidence[0].kb_id != first.retrieval_top1
+        self.asked += first.asked_llm
         self.decisions += first.decisions > 0
         self.moved += first.changed > 0
         self.readings_right += case.reading == ("other" if first.changed else "rules")
@@ -257,6 +261,7 @@ def evaluate(
         peak_rss_mb=round(sum(rss.values()), 1),
         peak_rss_parts_mb=rss,
         llm_changed_retrieval=t.changed if mode == "rag" else None,
+        llm_asked=t.asked if mode == "rag" else None,
         per_class={k: {"n": len(v), "acc": round(sum(v) / len(v), 4)} for k, v in sorted(t.by_class.items())},
         unsafe=t.unsafe,
         decisions=t.decisions,
@@ -306,6 +311,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"  rss {rep['peak_rss_mb']} MB"
                 f"  fallbacks {rep['fallbacks']}  unsafe {rep['unsafe']}"
                 f"  decided {rep['changed']}/{rep['decisions']}"
+                + (f"  llm asked {rep['llm_asked']}/{rep['n']}" if rep.get("llm_asked") is not None else "")
                 + (f" (right {rep['decisions_right']}/{rep['n']})" if rep["decisions_right"] is not None else "")
                 + "\n"
                 f"          per class: {_classes(rep['per_class'])}\n"

@@ -33,12 +33,15 @@ from llmland_schemas.messages import Evidence, SafetySpec
 from .batch import run_many
 from .decide import Decider, LlmDecider
 from .kb import KbEntry
-from .pipeline import Outcome, normalize_caption, rag_decider, run_llm, run_rag, run_retrieval
+from .pipeline import Outcome, normalize_caption, run_llm, run_retrieval
+from .rag import rag_decider, run_rag, warm_pointer
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
 log = logging.getLogger(__name__)
 
+#: what :meth:`SpecExtractor.warm_up` asks about
+WARM_UP_CAPTION = "a person standing on a grass field"
 #: (normalised caption, KB version, mode): what a cached spec depends on
 CacheKey = tuple[str, str, str]
 
@@ -56,6 +59,7 @@ class Extraction:
     is_human: bool | None = None
     decisions: int = 0  # mentions with another reading to decide (rag: the LLM's decisions)
     changed: int = 0  # of those, how many the decider moved off the rules' reading
+    asked_llm: bool = False  # rag: whether the LLM's pointer was asked (``rag.py``)
 
 
 class SpecExtractor:
@@ -149,8 +153,13 @@ class SpecExtractor:
         return out
 
     def warm_up(self) -> None:
-        """Evaluate the fixed prompt prefix once so the first real call pays only its suffix."""
-        self.extract_detailed("a person standing on a grass field")
+        """Load what a first call would (the fixed prompt prefix evaluated once, so the first
+        real call pays only its suffix; rag asks the LLM itself, since the rules settle the
+        warm-up caption)."""
+        self.extract_detailed(WARM_UP_CAPTION)
+        if self.mode == "rag" and self.settings.rag_pointer == "llm" and self.resources.backend is not None:
+            self._worker.submit(warm_pointer, WARM_UP_CAPTION, self.resources,
+                                self.settings.rag_context_in_prompt).result()
         self.clear_cache()
 
     def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
@@ -205,7 +214,8 @@ class SpecExtractor:
             mentions=outcome.mentions,
         )
         result = Extraction(spec=spec, phrase=outcome.phrase, retrieval_top1=outcome.retrieval_top1,
-                            is_human=outcome.is_human, decisions=outcome.decisions, changed=outcome.changed)
+                            is_human=outcome.is_human, decisions=outcome.decisions, changed=outcome.changed,
+                            asked_llm=outcome.asked_llm)
         self._cache_put(key, result)
         log.debug("spec %s for %r: %s", self.mode, caption, spec.model_dump(exclude={"caption"}))
         return result
@@ -224,7 +234,8 @@ class SpecExtractor:
             return run_retrieval(caption, res, s.every_mention)
         if self.mode == "llm":
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
-        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, self._decider())
+        return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, self._decider(),
+                       s.rag_llm_when_needed)
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)

@@ -41,6 +41,11 @@ def content_positions(words: Sequence[str]) -> list[int]:
     return positions or list(range(len(words)))
 
 
+def window_at(words: Sequence[str], start: int) -> str:
+    """The mention window starting at word ``start``: it and the :data:`WINDOW_WORDS` - 1 after it."""
+    return " ".join(words[start : start + WINDOW_WORDS])
+
+
 @dataclass(frozen=True)
 class Mention:
     """The LLM's pointer into the caption."""
@@ -61,5 +66,4 @@ def choose_mention(words: Sequence[str], positions: Sequence[int], logprobs: Seq
     normalised = scores - np.logaddexp.reduce(scores)
     best = int(np.argmax(normalised))  # argmax returns the first maximum: the earliest word
     start = positions[best]
-    window = " ".join(words[start : start + WINDOW_WORDS])
-    return Mention(start=start, word=words[start], window=window, logprob=float(normalised[best]))
+    return Mention(start=start, word=words[start], window=window_at(words, start), logprob=float(normalised[best]))

@@ -1,4 +1,6 @@
-"""The three ways of turning one normalised caption into spec fields (no caching, may raise).
+"""Turning one normalised caption into spec fields (no caching, may raise): the outcome, the
+every-mention safety layer, and the ``retrieval`` and ``llm`` modes (``rag``, LLM-Land, is in
+:mod:`.rag`).
 
 Each ``run_*`` returns an :class:`Outcome`; :mod:`.extractor` wraps them with the cache,
 the timeout and the conservative fallback.
@@ -14,11 +16,8 @@ from llmland_schemas.messages import MentionResult
 from pydantic import BaseModel, ConfigDict, Field
 
 from . import prompts
-from .decide import Decider, LlmDecider, RetrievalDecider
-from .grounding import ground
+from .decide import Decider
 from .kb import KbEntry
-from .llm import ScoreRequest
-from .mention import caption_words, choose_mention, content_positions
 from .mentions import Found
 from .resources import Resources
 from .safety import Alternative, Grounded, Numbers, ground_mentions, most_careful
@@ -47,6 +46,8 @@ class Outcome:
     #: how many mentions had another reading to decide, and how many the decider changed
     decisions: int = 0
     changed: int = 0
+    #: whether the LLM was asked (rag: not when no answer it could give changes the spec)
+    asked_llm: bool = False
 
     @classmethod
     def from_entry(cls, entry: KbEntry, model: str, evidence: list[tuple[str, float]], phrase: str = "",
@@ -137,7 +138,8 @@ class PaperAnswer(BaseModel):
     buffer: float = Field(ge=0.0, le=200.0)
 
 
-def _retrieve(caption: str, res: Resources) -> list[tuple[KbEntry, float]]:
+def retrieve_hits(caption: str, res: Resources) -> list[tuple[KbEntry, float]]:
+    """Retrieval's top-k (entry, fused score), best first; RuntimeError when there is none."""
     if res.retriever is None:
         raise RuntimeError("retrieval is not loaded")
     hits = res.retriever.retrieve(caption)
@@ -146,18 +148,19 @@ def _retrieve(caption: str, res: Resources) -> list[tuple[KbEntry, float]]:
     return hits
 
 
-def _embed_name(res: Resources) -> str:
+def embed_name(res: Resources) -> str:
+    """The embedder's model name ("" when none is loaded), for the spec's ``model`` field."""
     return res.embed.model_name if res.embed is not None else ""
 
 
 def run_retrieval(caption: str, res: Resources, every_mention: bool = True,
                   hits: list[tuple[KbEntry, float]] | None = None, found: list[Found] | None = None) -> Outcome:
     """``hits``, ``found``: retrieval's answer and the caption's mentions when a batch has them."""
-    hits = hits if hits is not None else _retrieve(caption, res)
+    hits = hits if hits is not None else retrieve_hits(caption, res)
     if not hits:
         raise RuntimeError("retrieval returned nothing")
     evidence = [(entry.id, score) for entry, score in hits]
-    answer = Outcome.from_entry(hits[0][0], _embed_name(res), evidence, retrieval_top1=hits[0][0].id)
+    answer = Outcome.from_entry(hits[0][0], embed_name(res), evidence, retrieval_top1=hits[0][0].id)
     if not every_mention:
         return answer
     return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, found=found)
@@ -177,75 +180,3 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
         label="unknown",
         model=res.backend.name,
     )
-
-
-def rag_decider(res: Resources, pointer: str, llm: LlmDecider | None = None) -> Decider | None:
-    """Who chooses between a mention's readings: the LLM (``llm``, or a new one), or retrieval
-    in the no-LLM ablations."""
-    if res.names is None or res.wordnet is None:
-        return None
-    if pointer == "llm" and res.backend is not None:
-        return llm or LlmDecider(res.backend, res.wordnet)
-    return RetrievalDecider(res.kb, res.names)
-
-
-def rag_request(caption: str, hits: list[tuple[KbEntry, float]], context_in_prompt: bool) -> ScoreRequest:
-    """The LLM call of rag's pointer: the first-token log-probability of each content word."""
-    words = caption_words(caption)
-    labels = [entry.label for entry, _ in hits] if context_in_prompt else None
-    return (prompts.rag_prefix(context_in_prompt), prompts.rag_suffix(caption, labels),
-            [words[i] for i in content_positions(words)], True)
-
-
-def run_rag(
-    caption: str, res: Resources, context_in_prompt: bool, pointer: str = "llm", every_mention: bool = True,
-    decider: Decider | None = None,
-) -> Outcome:
-    """LLM-Land. ``pointer="first_word"`` / ``"retrieval"`` are the no-LLM ablations: the mention
-    simply starts at the caption's first content word, or the answer is retrieval's top-1
-    entry; ``decider`` then is retrieval's (:func:`rag_decider`)."""
-    if res.names is None:
-        raise RuntimeError("rag needs retrieval")
-    hits = _retrieve(caption, res)
-    logprobs: list[float] | None = None
-    if pointer == "llm":
-        if res.backend is None:
-            raise RuntimeError("rag needs the LLM")
-        logprobs = res.backend.score(*rag_request(caption, hits, context_in_prompt))
-    return finish_rag(caption, hits, logprobs, res, pointer, every_mention, decider)
-
-
-def finish_rag(
-    caption: str, hits: list[tuple[KbEntry, float]], logprobs: list[float] | None, res: Resources, pointer: str,
-    every_mention: bool, decider: Decider | None, found: list[Found] | None = None,
-) -> Outcome:
-    """Everything of rag after retrieval (``hits``) and the LLM's pointer (``logprobs``, the
-    answer to :func:`rag_request`; None in the ablations)."""
-    if res.names is None:
-        raise RuntimeError("rag needs retrieval")
-    if not hits:
-        raise RuntimeError("retrieval returned nothing")
-    words = caption_words(caption)
-    positions = content_positions(words)
-    if pointer == "retrieval":
-        answer = Outcome.from_entry(hits[0][0], f"retrieval+{_embed_name(res)}", [(e.id, s) for e, s in hits],
-                                    retrieval_top1=hits[0][0].id)
-        if not every_mention:
-            return answer
-        return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, decider=decider, found=found)
-    if pointer == "first_word":
-        logprobs = [0.0] + [-1.0] * (len(positions) - 1)
-        name = "first-word"
-    else:
-        if res.backend is None or logprobs is None:
-            raise RuntimeError("rag needs the LLM")
-        name = res.backend.name
-    mention = choose_mention(words, positions, logprobs)
-    chosen = ground(mention.window, hits, res.names)
-    evidence = [(entry.id, round(score, 4)) for entry, score in chosen.ranked]
-    model = f"{name}+{_embed_name(res)}"
-    answer = Outcome.from_entry(chosen.entry, model, evidence, phrase=mention.window, retrieval_top1=hits[0][0].id)
-    if not every_mention:
-        return answer
-    return most_careful_of_mentions(caption, answer, chosen.entry, "llm", res, pointed=mention.word, decider=decider,
-                                    found=found)

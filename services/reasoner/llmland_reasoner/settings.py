@@ -59,6 +59,9 @@ class ReasonerSettings(BaseSettings):
     #: ``first_word`` (the pointer at the first content word) and ``retrieval`` (retrieval's
     #: top-1 entry as the answer); in both, retrieval's top-1 decides the readings
     rag_pointer: Literal["llm", "first_word", "retrieval"] = "llm"
+    #: rag: ask the LLM only when its answer could change the spec (``rag.py``: exact, every answer
+    #: it could give is played through first); False asks it for every caption (the paper's flow)
+    rag_llm_when_needed: bool = True
     #: the safety layer (rag and retrieval): every obstacle mention of the caption grounded in the
     #: KB, the spec the most careful of them. Off = the paper's single answer (for ablations only)
     every_mention: bool = True

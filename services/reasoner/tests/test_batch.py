@@ -1,4 +1,5 @@
-"""Batches across drones and captions: the same answers as one by one; a crash ⇒ every fallback."""
+"""Batches across drones and captions: the same answers as one by one; an LLM crash ⇒ a fallback
+for every caption that asked it, real specs for the captions the rules settle."""
 
 from __future__ import annotations
 
@@ -93,28 +94,56 @@ class FakeBus:
         self.sent.append((k, msg))
 
 
+#: a caption whose spec no answer of the LLM can change (a moving tractor wins, whatever it points
+#: at), and one the LLM must read ("crane": the machine or the bird, ``decide.py``)
+SETTLED = "a {colour} tractor number {n} next to a barn"
+NEEDS_LLM = "a white crane number {n} flying over the {colour} water"
+
+
 def _scene(drone: str, n: int) -> SceneDescription:
-    text = f"a {['red', 'blue', 'green'][n % 3]} tractor number {n} next to a barn"  # never cached
-    return SceneDescription(drone_id=drone, stamp=1.0, seq=n, caption=Caption(text=f"{text} in a field", backend="t"),
-                            objects=[SceneObject(obj_id="b0", caption=Caption(text=text, backend="t"),
+    colour = ["red", "blue", "green"][n % 3]  # never cached
+    settled, needs_llm = SETTLED.format(colour=colour, n=n), NEEDS_LLM.format(colour=colour, n=n)
+    return SceneDescription(drone_id=drone, stamp=1.0, seq=n, caption=Caption(text=settled, backend="t"),
+                            objects=[SceneObject(obj_id="b0", caption=Caption(text=needs_llm, backend="t"),
                                                  centroid_m=(1.0, 0.0, 0.5), size_m=(1.0, 1.0, 1.0))])
 
 
-def test_worker_crash_during_a_batch_gives_every_drone_a_fallback(resources: Resources) -> None:
+def _serve_with_a_dead_llm(resources: Resources, llm_when_needed: bool) -> tuple[CrashingBackend, FakeBus,
+                                                                                 ReasonerEngine, list[str]]:
     backend = CrashingBackend()
     res = replace(_fresh(resources, cache=True), backend=backend)
-    engine = ReasonerEngine(resources.settings.model_copy(update={"mode": "rag"}), res)
+    settings = resources.settings.model_copy(update={"mode": "rag", "rag_llm_when_needed": llm_when_needed})
+    engine = ReasonerEngine(settings, res)
     bus = FakeBus()
     service = ReasonerBusService(engine, bus)  # type: ignore[arg-type]
+    drones = [f"d{i}" for i in range(4)]
     try:
-        drones = [f"d{i}" for i in range(4)]
         now = time.perf_counter()
         service._serve([Pending(d, _scene(d, i), now) for i, d in enumerate(drones)])
     finally:
         service.close()
-    assert backend.batches == [8]  # one LLM request for the whole batch: 4 drones x 2 captions
     assert sorted(m.drone_id for _, m in bus.sent) == drones
+    return backend, bus, engine, drones
+
+
+def _is_fallback(spec: SafetySpec) -> bool:
+    return spec.source == "fallback" and spec.is_dynamic and "LlmUnavailableError" in (spec.reason or "")
+
+
+def test_worker_crash_during_a_batch_gives_every_drone_a_fallback(resources: Resources) -> None:
+    backend, bus, engine, _ = _serve_with_a_dead_llm(resources, llm_when_needed=False)
+    assert backend.batches == [8]  # one LLM request for the whole batch: 4 drones x 2 captions
     for _, msg in bus.sent:
-        for spec in [msg.scene, *[o.spec for o in msg.objects]]:
-            assert spec.source == "fallback" and spec.is_dynamic and "LlmUnavailableError" in (spec.reason or "")
+        assert all(_is_fallback(spec) for spec in [msg.scene, *[o.spec for o in msg.objects]])
     assert engine.cached_specs([_scene("d0", 0).caption.text]) is None  # a fallback is never cached
+
+
+def test_worker_crash_spares_the_captions_the_rules_settle(resources: Resources) -> None:
+    backend, bus, engine, _ = _serve_with_a_dead_llm(resources, llm_when_needed=True)
+    assert backend.batches == [4]  # only the cranes asked the LLM
+    for _, msg in bus.sent:
+        assert _is_fallback(msg.objects[0].spec)
+        settled = msg.scene
+        assert settled.source == "rag" and settled.is_dynamic and settled.label != "unknown"
+        assert settled.model.startswith("rules+")
+    assert engine.cached_specs([_scene("d0", 0).caption.text]) is not None  # a real spec is cached

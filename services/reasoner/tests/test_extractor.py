@@ -42,13 +42,24 @@ class SlowBackend(BrokenBackend):
         return 'yes", "z_min": 3.0, "buffer": 3}'
 
 
+#: a caption only the LLM can read ("crane": the machine or the bird; ``decide.py``)
+NEEDS_LLM = "a white crane flying over the water"
+
+
 @pytest.fixture(scope="module")
 def rag(resources: Resources) -> SpecExtractor:
     return SpecExtractor("rag", resources=resources)
 
 
-def test_rag_spec_is_grounded_in_the_kb(rag: SpecExtractor) -> None:
-    result = rag.extract_detailed("a man walking on a grass field")
+@pytest.fixture(scope="module")
+def rag_asking(resources: Resources) -> SpecExtractor:
+    """rag that asks the LLM for every caption (the paper's flow)."""
+    always = resources.settings.model_copy(update={"rag_llm_when_needed": False})
+    return SpecExtractor("rag", settings=always, resources=resources)
+
+
+def test_rag_spec_is_grounded_in_the_kb(rag_asking: SpecExtractor) -> None:
+    result = rag_asking.extract_detailed("a man walking on a grass field")
     spec = result.spec
     assert isinstance(spec, SafetySpec)
     assert spec.source == "rag" and spec.is_dynamic and spec.buffer_m == 3.0
@@ -57,6 +68,17 @@ def test_rag_spec_is_grounded_in_the_kb(rag: SpecExtractor) -> None:
     assert 1 <= len(spec.evidence) <= 3 and spec.evidence[0].kb_id in ("pedestrian", "person")
     assert "SmolLM2" in spec.model and "MiniLM" in spec.model
     assert spec.latency_ms > 0 and spec.caption == "a man walking on a grass field"
+    assert result.asked_llm
+
+
+def test_rag_answers_a_caption_the_rules_settle_without_the_llm(rag: SpecExtractor,
+                                                                rag_asking: SpecExtractor) -> None:
+    caption = "a man walking past a parked car"
+    quick, asked = rag.extract_detailed(caption), rag_asking.extract_detailed(caption)
+    assert not quick.asked_llm and quick.spec.model.startswith("rules+") and asked.asked_llm
+    fields = ("is_dynamic", "z_min", "buffer_m", "is_human")
+    assert quick.spec.model_dump(include=set(fields)) == asked.spec.model_dump(include=set(fields))
+    assert quick.spec.is_human and quick.spec.source == "rag"
 
 
 def test_rag_tells_a_statue_from_a_person(rag: SpecExtractor) -> None:
@@ -99,12 +121,15 @@ def test_cache_answers_repeats_instantly(rag: SpecExtractor) -> None:
 def test_model_failure_falls_back_conservatively(resources: Resources, backend: BrokenBackend) -> None:
     broken = replace(resources, backend=backend)
     for mode in ("rag", "llm"):
-        extractor = SpecExtractor(mode, resources=broken)
-        spec = extractor.extract("a man walking on a grass field")
-        assert spec.source == "fallback" and spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M
-        assert spec.caption == "a man walking on a grass field"
-        assert extractor.extract_detailed("a man walking on a grass field").error  # failures are not cached
-        extractor.close()
+        for caption in (NEEDS_LLM, "a man walking on a grass field"):
+            extractor = SpecExtractor(mode, resources=broken)
+            spec = extractor.extract(caption)
+            settled = mode == "rag" and caption != NEEDS_LLM  # answered by the rules: the LLM is not asked
+            assert spec.source == ("rag" if settled else "fallback"), (mode, caption)
+            if not settled:
+                assert spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M and spec.caption == caption
+                assert extractor.extract_detailed(caption).error  # failures are not cached
+            extractor.close()
 
 
 def test_timeout_falls_back_and_the_late_answer_is_cached(resources: Resources) -> None:
