@@ -68,8 +68,8 @@ def _care(o: Outcome) -> tuple[bool, float, float, bool | None]:
 def unanimous_answer(caption: str, hits: list[tuple[KbEntry, float]], res: Resources,
                      found: list[Found] | None = None) -> Outcome | None:
     """rag's outcome when every answer the LLM's pointer could give leads to the same safety
-    fields (the outcome of the first content word, labelled as the rules', ``asked_llm`` False),
-    else None: the LLM must be asked. Needs the every-mention layer (without it the pointer's
+    fields (the outcome of the first content word, labelled as the rules', ``asked_llm`` False,
+    no ``phrase``), else None: the LLM must be asked. Needs the every-mention layer (without it the pointer's
     answer *is* the spec). ``found``: the caption's mentions when the caller has them. Raises
     what the mention layer raises."""
     if res.finder is None or res.names is None or not hits:
@@ -88,7 +88,7 @@ def unanimous_answer(caption: str, hits: list[tuple[KbEntry, float]], res: Resou
             first = out
         elif _care(out) != _care(first):
             return None
-    return first
+    return None if first is None else replace(first, phrase="")  # nothing was pointed at
 
 
 def warm_pointer(caption: str, res: Resources, context_in_prompt: bool) -> None:
