@@ -26,9 +26,10 @@ from functools import partial
 from .decide import Decider
 from .kb import KbEntry
 from .llm import score_many
+from .mention import caption_words, choose_mention, content_positions
 from .mentions import Found
 from .pipeline import Outcome, run_llm, run_retrieval
-from .rag import finish_rag, pointer_windows, rag_request, unanimous_answer
+from .rag import finish_rag, pointer_windows, rag_request, unanimous_or_none
 from .resources import Resources
 from .safety import uncached_windows
 from .settings import Mode, ReasonerSettings
@@ -52,14 +53,16 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
         return [exc] * len(captions)
     pointer = settings.rag_pointer
     asks_llm = mode == "rag" and pointer == "llm"
-    found = _find_and_prefetch(captions, hits, res, settings.every_mention, asks_llm)
+    when_needed = asks_llm and settings.every_mention and settings.rag_llm_when_needed
+    found = _find_and_prefetch(captions, hits, res, settings.every_mention, when_needed)
     logprobs: list[list[float] | None] = [None] * len(captions)
     known: list[Outcome | None] = [None] * len(captions)
     if asks_llm:
         if res.backend is None:
             return [RuntimeError("rag needs the LLM")] * len(captions)
-        if settings.every_mention and settings.rag_llm_when_needed:
-            known = [_unanimous(captions[k], hits[k], res, found[k]) for k in range(len(captions))]
+        if when_needed:
+            known = [unanimous_or_none(captions[k], hits[k], res, found[k]) if found[k] is not None else None
+                     for k in range(len(captions))]
         asked = [k for k, h in enumerate(hits) if h and known[k] is None]
         try:
             answers = score_many(res.backend, [rag_request(captions[k], hits[k], settings.rag_context_in_prompt)
@@ -69,6 +72,8 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
             return [done if done is not None else exc for done in known]
         for k, a in zip(asked, answers, strict=True):
             logprobs[k] = a
+        if not when_needed:
+            _prefetch_chosen(captions, logprobs, res)
     out: list[Result] = []
     for k, caption in enumerate(captions):
         done = known[k]
@@ -82,29 +87,34 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
     return out
 
 
-def _unanimous(caption: str, hits: list[tuple[KbEntry, float]], res: Resources,
-               found: list[Found] | None) -> Outcome | None:
-    """:func:`~.rag.unanimous_answer`, None (ask the LLM) where it fails: the caption's own
-    step 4 then meets the error again."""
-    if found is None:
-        return None
-    try:
-        return unanimous_answer(caption, hits, res, found)
-    except Exception as exc:  # noqa: BLE001 - the LLM is asked instead
-        log.debug("no rules answer for %r: %s", caption, exc)
-        return None
+def _prefetch_chosen(captions: Sequence[str], logprobs: list[list[float] | None], res: Resources) -> None:
+    """One embedding call for the window the LLM chose in every caption (when every pointer
+    window was not embedded beforehand)."""
+    windows: list[str] = []
+    for caption, lp in zip(captions, logprobs, strict=True):
+        if lp is not None:
+            try:
+                words = caption_words(caption)
+                windows.append(choose_mention(words, content_positions(words), lp).window)
+            except Exception as exc:  # noqa: BLE001 - that caption's own step 4 meets it again
+                log.debug("no window to prefetch for %r: %s", caption, exc)
+    if windows and res.names is not None:
+        try:
+            res.names.phrases(list(dict.fromkeys(windows)))
+        except Exception as exc:  # noqa: BLE001 - step 4 embeds them itself
+            log.warning("batched window embedding failed: %s", exc)
 
 
 def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, float]]], res: Resources,
-                       every_mention: bool, pointer: bool) -> list[list[Found] | None]:
+                       every_mention: bool, with_pointer_windows: bool) -> list[list[Found] | None]:
     """Each caption's mentions (None where finding failed: step 4 then finds them itself and
     reports the error), and one embedding call for every window steps 3 and 4 will need
-    (with ``pointer``, every window rag's LLM pointer can choose)."""
+    (``with_pointer_windows``: every window rag's LLM pointer can choose)."""
     found: list[list[Found] | None] = [None] * len(captions)
     windows: list[str] = []
     for k, caption in enumerate(captions):
         try:
-            if pointer and hits[k]:
+            if with_pointer_windows and hits[k]:
                 windows += pointer_windows(caption)
             if every_mention and res.finder is not None:
                 found[k] = res.finder.find(caption)

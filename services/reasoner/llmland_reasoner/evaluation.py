@@ -89,7 +89,9 @@ class EvalReport(BaseModel):
     cpu_cold_ms: dict[str, float]  # process CPU time of a cold call: what the latency is on an idle core
     load_s: dict[str, float]
     peak_rss_mb: float
-    llm_changed_retrieval: int | None = None  # rag: how often the LLM's pick differs from retrieval's top-1
+    #: rag: how often the LLM's pick differs from retrieval's top-1 (since d0e97af over the captions
+    #: that asked the LLM only: not comparable with older reports)
+    llm_changed_retrieval: int | None = None
     #: rag: captions for which the LLM's pointer was asked (the others: no answer could change the spec)
     llm_asked: int | None = None
     #: accuracy (both fields right) per class of the caption's most careful thing

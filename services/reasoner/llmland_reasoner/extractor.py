@@ -158,8 +158,11 @@ class SpecExtractor:
         warm-up caption)."""
         self.extract_detailed(WARM_UP_CAPTION)
         if self.mode == "rag" and self.settings.rag_pointer == "llm" and self.resources.backend is not None:
-            self._worker.submit(warm_pointer, WARM_UP_CAPTION, self.resources,
-                                self.settings.rag_context_in_prompt).result()
+            try:
+                self._worker.submit(warm_pointer, WARM_UP_CAPTION, self.resources,
+                                    self.settings.rag_context_in_prompt).result()
+            except Exception as exc:  # noqa: BLE001 - like any call: the first caption that needs it pays
+                log.warning("LLM warm-up failed: %s", exc)
         self.clear_cache()
 
     def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:

@@ -10,14 +10,18 @@ car": whichever word it points at, a person is in the caption and the person's s
 over the caption's content words (:func:`~.mention.choose_mention`), so there are only
 ``len(content_positions)`` answers it can give; each is played through the same code as a
 real answer (:func:`finish_rag` with a one-hot pointer). When all of them give the same safety
-fields (``is_dynamic``, ``z_min``, ``buffer_m``, ``is_human``), that is the spec whatever the
-LLM would say, and the LLM is not asked; otherwise it is. Captions with a mention of another
+fields (``is_dynamic``, ``z_min``, ``buffer_m``, ``is_human``), that is the spec whatever answer
+the LLM would give, and the LLM is not asked; otherwise it is. (An LLM that fails — a dead
+worker, non-finite scores — gave such a caption the conservative fallback before; now the
+caption keeps the spec every valid answer gives.) The report fields of a settled spec (label,
+evidence, the mention list) are those of the first content word's candidate. Captions with a mention of another
 reading (``decide.py``) and captions that name nothing the KB knows always go to the LLM.
 ``rag_llm_when_needed=False`` asks it for every caption (the paper's flow; latency comparisons).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import replace
 
 from . import prompts
@@ -29,7 +33,9 @@ from .mention import caption_words, choose_mention, content_positions, window_at
 from .mentions import Found
 from .pipeline import Outcome, embed_name, most_careful_of_mentions, retrieve_hits
 from .resources import Resources
-from .safety import ground_mentions
+from .safety import ground_mentions, uncached_windows
+
+log = logging.getLogger(__name__)
 
 #: The one-hot pointer's log-probability for the words not pointed at (any finite value below 0).
 _NOT_POINTED = -1.0
@@ -91,6 +97,23 @@ def unanimous_answer(caption: str, hits: list[tuple[KbEntry, float]], res: Resou
     return None if first is None else replace(first, phrase="")  # nothing was pointed at
 
 
+def unanimous_or_none(caption: str, hits: list[tuple[KbEntry, float]], res: Resources,
+                      found: list[Found] | None) -> Outcome | None:
+    """:func:`unanimous_answer`, or None (ask the LLM) where it fails: the steps after the LLM
+    then meet the error again and report it. One policy for one caption and for a batch."""
+    try:
+        return unanimous_answer(caption, hits, res, found)
+    except Exception as exc:  # noqa: BLE001 - the LLM is asked instead
+        log.debug("no rules answer for %r: %s", caption, exc)
+        return None
+
+
+def prefetch_windows(caption: str, found: list[Found], res: Resources) -> list[str]:
+    """The windows :func:`unanimous_answer` will embed for ``caption`` (every pointer window and
+    the windows of mentions not in the mention cache), for one embedding call beforehand."""
+    return pointer_windows(caption) + uncached_windows(caption, found, res.kb, res.mention_cache)
+
+
 def warm_pointer(caption: str, res: Resources, context_in_prompt: bool) -> None:
     """Ask the LLM's pointer about ``caption`` (its answer unused): the prompt prefix is then
     evaluated and kept (``llm.py``), so the first caption that needs the LLM pays only its suffix."""
@@ -114,9 +137,10 @@ def run_rag(
     if pointer == "llm":
         if res.backend is None:
             raise RuntimeError("rag needs the LLM")
-        if every_mention and llm_when_needed:
-            res.names.phrases(list(dict.fromkeys(pointer_windows(caption))))  # one embedding call
-            known = unanimous_answer(caption, hits, res)
+        if every_mention and llm_when_needed and res.finder is not None:
+            found = res.finder.find(caption)
+            res.names.phrases(list(dict.fromkeys(prefetch_windows(caption, found, res))))  # one embedding call
+            known = unanimous_or_none(caption, hits, res, found)
             if known is not None:
                 return known
         logprobs = res.backend.score(*rag_request(caption, hits, context_in_prompt))
@@ -128,9 +152,10 @@ def finish_rag(
     every_mention: bool, decider: Decider | None, found: list[Found] | None = None, *, asked: bool = True,
 ) -> Outcome:
     """Everything of rag after retrieval (``hits``) and the LLM's pointer (``logprobs``, the
-    answer to :func:`rag_request`; None in the ablations). ``asked=False``: ``logprobs`` are
-    one answer the LLM could give, played through by :func:`unanimous_answer` (the outcome then
-    names the rules as its model, and the pointed mention's entry as retrieval's)."""
+    answer to :func:`rag_request`; None in the ablations). ``asked=False`` (``pointer="llm"``
+    only): ``logprobs`` are one answer the LLM could give, played through by
+    :func:`unanimous_answer`; the outcome then names the rules as its model, and the candidate
+    mention's source is ``retrieval`` (its entry is the retrieved candidate its window names)."""
     if res.names is None:
         raise RuntimeError("rag needs retrieval")
     if not hits:

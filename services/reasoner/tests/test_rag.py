@@ -105,3 +105,20 @@ def test_warm_up_evaluates_the_pointer_prompt_although_the_rules_settle_its_capt
     finally:
         extractor.close()
     assert pointer.prefixes == [rag_prefix(False)]
+
+
+class DeadPointer(RandomPointer):
+    def score(self, prefix: str, suffix: str, continuations: Sequence[str],
+              first_token_only: bool = False) -> list[float]:
+        raise RuntimeError("LLM worker died")
+
+
+def test_warm_up_survives_a_dead_llm(resources: Resources) -> None:
+    from llmland_reasoner.extractor import SpecExtractor
+
+    extractor = SpecExtractor("rag", resources=replace(resources, backend=DeadPointer(0)))
+    try:
+        extractor.warm_up()  # logs; the service still starts
+        assert extractor.extract("a man walking past a parked car").source == "rag"  # settled: no LLM
+    finally:
+        extractor.close()
