@@ -98,11 +98,7 @@ def _prefetch_chosen(captions: Sequence[str], logprobs: list[list[float] | None]
                 windows.append(choose_mention(words, content_positions(words), lp).window)
             except Exception as exc:  # noqa: BLE001 - that caption's own step 4 meets it again
                 log.debug("no window to prefetch for %r: %s", caption, exc)
-    if windows and res.names is not None:
-        try:
-            res.names.phrases(list(dict.fromkeys(windows)))
-        except Exception as exc:  # noqa: BLE001 - step 4 embeds them itself
-            log.warning("batched window embedding failed: %s", exc)
+    _embed_once(windows, res)
 
 
 def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, float]]], res: Resources,
@@ -121,12 +117,18 @@ def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, f
                 windows += uncached_windows(caption, found[k] or [], res.kb, res.mention_cache)
         except Exception as exc:  # noqa: BLE001 - that caption's own step 4 meets it again
             log.debug("prefetch skipped for %r: %s", caption, exc)
+    _embed_once(windows, res)
+    return found
+
+
+def _embed_once(windows: list[str], res: Resources) -> None:
+    """One MiniLM call for every window not embedded yet (each once); a failure is logged, and
+    step 4 embeds what it needs itself."""
     if windows and res.names is not None:
         try:
             res.names.phrases(list(dict.fromkeys(windows)))
         except Exception as exc:  # noqa: BLE001 - step 4 embeds them itself
             log.warning("batched window embedding failed: %s", exc)
-    return found
 
 
 def _guard(fn: Callable[[], Outcome]) -> Result:
