@@ -43,12 +43,13 @@ def _same(a: SafetySpec, b: SafetySpec) -> None:
     assert a.caption == b.caption
 
 
-@pytest.mark.parametrize("mode", ["rag", "retrieval"])
-def test_batched_answers_equal_one_by_one_answers(resources: Resources, mode: str) -> None:
+@pytest.mark.parametrize(("mode", "llm_when_needed"), [("rag", True), ("rag", False), ("retrieval", True)])
+def test_batched_answers_equal_one_by_one_answers(resources: Resources, mode: str, llm_when_needed: bool) -> None:
     captions = _captions()
-    alone = SpecExtractor(mode, resources=_fresh(resources, cache=False))  # type: ignore[arg-type]
+    settings = resources.settings.model_copy(update={"rag_llm_when_needed": llm_when_needed})
+    alone = SpecExtractor(mode, settings, _fresh(resources, cache=False))  # type: ignore[arg-type]
     one_by_one = [alone.extract(c) for c in captions]
-    batched = SpecExtractor(mode, resources=_fresh(resources, cache=True))  # type: ignore[arg-type]
+    batched = SpecExtractor(mode, settings, _fresh(resources, cache=True))  # type: ignore[arg-type]
     together = [x.spec for x in batched.extract_many(captions)]
     assert len(together) == len(captions)
     for a, b in zip(together, one_by_one, strict=True):
