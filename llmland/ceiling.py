@@ -58,14 +58,14 @@ def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSetti
     try:
         w = build_world(client, world, seed, n_pedestrians=n_pedestrians)
         target = np.asarray(w.target_m, dtype=float)[:2]
-        people = [o for o in w.objects if o.cls == "person" and o.actor is not None]
+        people = [(o.obj_id, o.actor) for o in w.objects if o.cls == "person" and o.actor is not None]
         first, n_open, n, closest, t = None, 0, 0, math.inf, 0.0
         while t + duration <= timeout_s:
             hyps = []
-            for o in people:
-                pos, _ = o.actor.pose()
-                hyps.append(PersonHypothesis(o.obj_id, np.asarray(pos, dtype=float)[:2], PERSON_BODY_RADIUS_M,
-                                             float(np.linalg.norm(o.actor.velocity()[:2])), 0.0, "person"))
+            for obj_id, actor in people:
+                pos, _ = actor.pose()
+                hyps.append(PersonHypothesis(obj_id, np.asarray(pos, dtype=float)[:2], PERSON_BODY_RADIUS_M,
+                                             float(np.linalg.norm(actor.velocity()[:2])), 0.0, "person"))
                 closest = min(closest, float(np.linalg.norm(np.asarray(pos, dtype=float)[:2] - target)))
             gate = commit_clearance(target, hyps, duration, bounds, coverage_m=math.inf, frame_period_s=0.0,
                                     xy_margin_m=s.landing_xy_margin_m)
