@@ -29,7 +29,7 @@ from .llm import score_many
 from .mention import caption_words, choose_mention, content_positions
 from .mentions import Found
 from .pipeline import Outcome, run_llm, run_retrieval
-from .rag import finish_rag, pointer_windows, rag_request, unanimous_or_none
+from .rag import finish_rag, prefetch_windows, rag_request, unanimous_or_none
 from .resources import Resources
 from .safety import uncached_windows
 from .settings import Mode, ReasonerSettings
@@ -110,11 +110,10 @@ def _find_and_prefetch(captions: Sequence[str], hits: list[list[tuple[KbEntry, f
     windows: list[str] = []
     for k, caption in enumerate(captions):
         try:
-            if with_pointer_windows and hits[k]:
-                windows += pointer_windows(caption)
             if every_mention and res.finder is not None:
-                found[k] = res.finder.find(caption)
-                windows += uncached_windows(caption, found[k] or [], res.kb, res.mention_cache)
+                found[k] = mentions = res.finder.find(caption)
+                windows += (prefetch_windows(caption, mentions, res) if with_pointer_windows and hits[k]
+                            else uncached_windows(caption, mentions, res.kb, res.mention_cache))
         except Exception as exc:  # noqa: BLE001 - that caption's own step 4 meets it again
             log.debug("prefetch skipped for %r: %s", caption, exc)
     _embed_once(windows, res)
