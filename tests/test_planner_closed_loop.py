@@ -43,3 +43,15 @@ def test_given_pedestrian_spec_lands_outside_reach() -> None:
 
 
 SEED = "3"
+
+
+def test_detour_away_from_the_goal_is_flown_looking_ahead() -> None:
+    """Regression (Exp 2, conservative, open_field seed 34): the start lay inside a tree's
+    possible-person keep-out, the first detour led backwards, and the drone flew it facing the
+    goal into a tree neither camera had seen (a collision at 9.4 s). The forward camera now looks
+    along the path; the first 15 s hold no collision."""
+    proc = run_cli("land", "--method", "conservative", "--world", "open_field", "--seed", "34",
+                   "--timeout", "15", timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    r = json.loads(proc.stdout)
+    assert r["collisions"] == [] and r["close_calls"] == 0, r

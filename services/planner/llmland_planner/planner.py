@@ -49,8 +49,10 @@ REACH_FLOOR_MARGIN_M = 0.1
 DOWN_FRAME_FRESH_S = 0.5
 #: Holding: the forward camera turns toward possible people nearer than this (m).
 YAW_ATTENTION_M = 12.0
-#: Approaching: face the goal while it is farther than this (m).
+#: Approaching: turn only toward a point farther than this (m); nearer, bearings are noise.
 YAW_ALONG_PATH_MIN_M = 1.0
+#: Approaching: the forward camera looks at the active path this far (m) ahead of the vehicle.
+YAW_LOOK_AHEAD_M = 3.0
 
 
 @dataclass
@@ -218,15 +220,19 @@ class Planner:
         return ref_pos, ref_vel
 
     def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings) -> None:
-        """Where the forward camera looks: along the way while approaching; while holding, at the
-        nearest possible person (their class stays fresh), else turning slowly to see all around."""
+        """Where the forward camera looks: along the active path while approaching (at the goal
+        before the first plan); while holding, at the nearest possible person (their class stays
+        fresh), else turning slowly to see all around."""
         s = self.settings
         dt = max(0.0, t - self._last_t)
         self._last_t = t
         if phase in (Phase.DESCEND, Phase.TOUCHDOWN, Phase.CLIMB_OUT):
             return
         if phase == Phase.APPROACH:
-            d = goal[:2] - pos[:2]
+            # Along the path, not at the goal: a detour can lead away from the goal (even
+            # backwards), and the vehicle must see what it flies into.
+            ahead = self.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M)
+            d = (goal if ahead is None else ahead)[:2] - pos[:2]
             if float(np.linalg.norm(d)) > YAW_ALONG_PATH_MIN_M:
                 self._turn_toward(math.atan2(float(d[1]), float(d[0])), s.hold_yaw_rate_rps * dt)
             return

@@ -200,6 +200,17 @@ class Replanner:
         lo, hi = boxes_array(regions)
         return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
 
+    def look_ahead_m(self, pos: FloatArray, distance_m: float) -> FloatArray | None:
+        """The first point ``(3,)`` of the active path past the vehicle's progress that lies at
+        least ``distance_m`` away horizontally (where the vehicle is about to fly), else the path's
+        end; None without a plan."""
+        act = self.active
+        if act is None:
+            return None
+        ahead = act.path.p[act.progress_idx:]
+        far = np.flatnonzero(np.linalg.norm(ahead[:, :2] - pos[:2], axis=1) >= distance_m)
+        return ahead[int(far[0])] if len(far) else ahead[-1]
+
     def reference(self, pos: FloatArray) -> tuple[FloatArray, FloatArray, Halfspaces | None]:
         """MPC references ``(N+1, 3)`` position and velocity along the active path, with its
         corridors' half-spaces per stage (None: none); without a plan, hold where the vehicle is."""
