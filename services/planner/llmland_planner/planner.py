@@ -28,6 +28,7 @@ from llmland_schemas.frames import CameraFrame
 from .dynamics import ModelParams
 from .hard_limit import REACH_CEILING_M, coverage_radius_m
 from .landing import LandingLogic, Phase, Surroundings
+from .look_ahead import must_turn_first
 from .mpc import MpcController, MpcResult
 from .regions import UnsafeRegion
 from .replanning import CORRIDOR_EXIT_M, Replanner
@@ -139,7 +140,10 @@ class Planner:
         phase, goal = self.landing.update(pos, vel, t, around)
         self._log_phase(phase, t, around)
         regions = around.regions
-        self._steer_yaw(phase, t, pos, goal, around)
+        ahead = self.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M) if phase == Phase.APPROACH else None
+        self._steer_yaw(phase, t, pos, goal, around, ahead)
+        hold = self.settings.look_before_flying and must_turn_first(
+            pos, float(euler[2]), ahead, self.world.forward_half_azimuth_rad, YAW_ALONG_PATH_MIN_M)
         snapshot = None
         halfspaces = None
         if phase in (Phase.DESCEND, Phase.CLIMB_OUT, Phase.TOUCHDOWN):
@@ -148,7 +152,7 @@ class Planner:
         else:
             if self.paths.maybe_replan(t, pos, vel, goal, regions, self._reach_floor(pos)):
                 snapshot = self._snapshot(t, regions, None)
-            ref_pos, ref_vel, halfspaces = self.paths.reference(pos)
+            ref_pos, ref_vel, halfspaces = self.paths.reference(pos, hold=hold)
         if snapshot is None and (phase != self._snap_phase or t - self._snap_t >= SNAPSHOT_PERIOD_S):
             snapshot = self._snapshot(t, regions, around)
         if snapshot is not None:
@@ -219,10 +223,12 @@ class Planner:
         ref_vel = np.column_stack([np.zeros(n + 1), np.zeros(n + 1), vz])
         return ref_pos, ref_vel
 
-    def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings) -> None:
+    def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings,
+                   ahead: FloatArray | None = None) -> None:
         """Where the forward camera looks: along the active path while approaching (at the goal
         before the first plan); while holding, at the nearest possible person (their class stays
-        fresh), else turning slowly to see all around."""
+        fresh), else turning slowly to see all around. ``ahead (3,)``: the active path's point
+        ahead (:meth:`.Replanner.look_ahead_m`), None before the first plan."""
         s = self.settings
         dt = max(0.0, t - self._last_t)
         self._last_t = t
@@ -230,8 +236,7 @@ class Planner:
             return
         if phase == Phase.APPROACH:
             # Along the path, not at the goal: a detour can lead away from the goal (even
-            # backwards), and the vehicle must see what it flies into.
-            ahead = self.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M)
+            # backwards), and the vehicle must see what it flies into (look_ahead.py).
             d = (goal if ahead is None else ahead)[:2] - pos[:2]
             if float(np.linalg.norm(d)) > YAW_ALONG_PATH_MIN_M:
                 self._turn_toward(math.atan2(float(d[1]), float(d[0])), s.hold_yaw_rate_rps * dt)

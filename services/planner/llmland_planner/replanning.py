@@ -211,9 +211,11 @@ class Replanner:
         far = np.flatnonzero(np.linalg.norm(ahead[:, :2] - pos[:2], axis=1) >= distance_m)
         return ahead[int(far[0])] if len(far) else ahead[-1]
 
-    def reference(self, pos: FloatArray) -> tuple[FloatArray, FloatArray, Halfspaces | None]:
+    def reference(self, pos: FloatArray, hold: bool = False) -> tuple[FloatArray, FloatArray, Halfspaces | None]:
         """MPC references ``(N+1, 3)`` position and velocity along the active path, with its
-        corridors' half-spaces per stage (None: none); without a plan, hold where the vehicle is."""
+        corridors' half-spaces per stage (None: none); without a plan, hold where the vehicle is.
+        ``hold``: wait at the nearest path point (the camera has not seen the way ahead yet,
+        :mod:`.look_ahead`); progress along the path resumes from there."""
         n, dt = self.settings.horizon, self.settings.mpc_dt_s
         act = self.active
         if act is None:  # no plan yet: hold here (never rush toward the goal blind)
@@ -223,9 +225,14 @@ class Replanner:
         hi = min(len(p.p), lo + PROGRESS_WINDOW_POINTS)
         idx = lo + int(np.argmin(np.linalg.norm(p.p[lo:hi] - pos, axis=1)))
         act.progress_idx = idx
-        t_ref = float(p.t[idx]) + dt
-        ref = resample(p, dt, t_start=t_ref, count=n + 1)
-        times = t_ref + dt * np.arange(1, n + 1)
+        if hold:
+            ref_p, ref_v = np.tile(p.p[idx], (n + 1, 1)), np.zeros((n + 1, 3))
+            times = np.full(n, float(p.t[idx]))
+        else:
+            t_ref = float(p.t[idx]) + dt
+            ref = resample(p, dt, t_start=t_ref, count=n + 1)
+            ref_p, ref_v = ref.p, ref.v
+            times = t_ref + dt * np.arange(1, n + 1)
         hs = halfspaces_at_times(act.corridors, times, self.settings.max_halfspaces) if act.corridors else None
         if hs is not None:
             a0, b0 = hs[0]
@@ -234,7 +241,7 @@ class Replanner:
                 # from here would only be slack; track the path without them and replan now.
                 self.force_replan = True
                 hs = None
-        return ref.p, ref.v, hs
+        return ref_p, ref_v, hs
 
 
 def where_blocked(start_m: FloatArray, goal_m: FloatArray, regions: list[UnsafeRegion]) -> str:

@@ -90,6 +90,9 @@ class PlannerSettings(BaseSettings):
     #: climbing out: up at this speed (m/s)
     climb_speed_mps: float = 1.5
     #: holding: turn toward the nearest possible person at up to this yaw rate (rad/s), else
-    #: turn slowly to look all around
+    #: turn slowly to look all around; approaching: turn along the path at this rate
     hold_yaw_rate_rps: float = 1.0
+    #: approaching: wait on the path while the way ahead is outside the forward camera's
+    #: view (look_ahead.py); off flies the path while the camera is still turning
+    look_before_flying: bool = True
     scan_yaw_rate_rps: float = 0.5

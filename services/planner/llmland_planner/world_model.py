@@ -37,6 +37,7 @@ from llmland_schemas.frames import CameraFrame
 
 from .ground import GroundMap
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
+from .look_ahead import view_half_azimuth_rad
 from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
 from .specs import AttachedSpec, PendingSpec, more_careful
@@ -88,6 +89,8 @@ class WorldModel:
         self.pending: list[PendingSpec] = []
         self._views: dict[float, dict[str, tuple[list[Blob], VisibleFn]]] = {}
         self.down_half_fov_rad: float | None = None  # known once a downward frame arrived
+        #: half the forward camera's azimuth range (rad, :func:`~.look_ahead.view_half_azimuth_rad`)
+        self.forward_half_azimuth_rad: float | None = None
         self.last_down_stamp_s: float | None = None
         self.specs_applied = 0
         self.spec_latencies_ms: list[float] = []
@@ -118,6 +121,8 @@ class WorldModel:
         if frame.header.camera == "down":
             self.down_half_fov_rad = frame.header.intrinsics.half_fov_rad
             self.last_down_stamp_s = frame.header.stamp
+        else:
+            self.forward_half_azimuth_rad = view_half_azimuth_rad(frame.header.intrinsics, frame.T_world_camera)
         view = (blobs, frustum_fn(frame, s.max_range_m))
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
 

@@ -1,9 +1,10 @@
-"""Planner ticks: a regression test for a closed-loop bug, and yaw through ±π."""
+"""Planner ticks: a regression test for a closed-loop bug, yaw through ±π, looking along the path."""
 
 import math
 
 import numpy as np
-from llmland_planner.planner import Planner
+import pytest
+from llmland_planner.planner import YAW_LOOK_AHEAD_M, Planner
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import MissionGoal, VehicleState
 
@@ -103,11 +104,11 @@ def test_approaching_the_camera_looks_along_a_detour_not_at_the_goal():
     around = Surroundings([], [], 0.0, lambda _d: [])
     pos, goal = np.array([0.0, 0.0, 3.0]), np.array([10.0, 0.0, 3.0])
     for k in range(1, 80):  # 4 s at 20 Hz: enough to turn π at the hold yaw rate
-        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around)
+        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around, pl.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M))
     assert abs(math.remainder(pl._yaw_ref - math.pi, 2 * math.pi)) < 0.05  # looking where it flies: -x
     pl.paths.active = None  # no plan: back to the goal
     for k in range(80, 160):
-        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around)
+        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around, pl.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M))
     assert abs(math.remainder(pl._yaw_ref, 2 * math.pi)) < 0.05
 
 
@@ -122,3 +123,66 @@ def test_look_ahead_is_the_path_end_near_the_goal():
     pl.paths.active = ActivePlan(Path(t, p, np.gradient(p, t, axis=0)), [], p[-1], 0.0, 1.0)
     assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 3.0), p[-1])
     assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 0.5), p[10])
+
+
+def _backwards_detour():
+    """A path leaving backwards (-x) for 5 s, then around toward a goal at +x; z varies."""
+    from llmland_planner.path import Path
+
+    t = np.arange(0.0, 10.0, 0.05)
+    xs = np.where(t < 5.0, -t, -5.0 + 3.0 * (t - 5.0))
+    ys = np.where(t < 5.0, 0.0, 2.0 * (t - 5.0))
+    p = np.column_stack([xs, ys, 3.0 + 0.1 * t])
+    return Path(t, p, np.gradient(p, t, axis=0))
+
+
+def test_look_ahead_starts_from_the_progress_and_measures_horizontally():
+    from llmland_planner.replanning import ActivePlan
+
+    pl = Planner()
+    path = _backwards_detour()
+    pl.paths.active = ActivePlan(path, [], path.p[-1], 0.0, 1.0, progress_idx=60)  # at x = -3
+    pos = path.p[60] + np.array([0.0, 0.0, 5.0])  # far above: only the horizontal distance counts
+    ahead = pl.paths.look_ahead_m(pos, 1.0)
+    assert ahead is not None and ahead[0] == pytest.approx(-4.0, abs=0.06)  # ahead, not back at x = -2
+    assert np.linalg.norm(ahead[:2] - pos[:2]) >= 1.0
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_the_approach_waits_until_the_camera_faces_the_way_ahead(monkeypatch, enabled):
+    """With a known camera view (±0.6 rad), a tick on a backwards detour holds the path
+    reference; once the vehicle faces the way ahead it flies on; ``look_before_flying=False``
+    never holds."""
+    from llmland_planner.replanning import ActivePlan
+
+    pl = Planner(PlannerSettings(look_before_flying=enabled))
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, 0, 3), target_m=(10, 0, 0)))
+    pl.landing.climbed = True
+    path = _backwards_detour()
+    pl.paths.active = ActivePlan(path, [], np.array([10.0, 0.0, 3.0]), 0.0, 1.0)
+    monkeypatch.setattr(pl.paths, "maybe_replan", lambda *a, **k: False)
+    holds: list[bool] = []
+    real = pl.paths.reference
+
+    def recording(pos, hold=False):
+        holds.append(hold)
+        return real(pos, hold)
+
+    monkeypatch.setattr(pl.paths, "reference", recording)
+    pl.world.forward_half_azimuth_rad = 0.6
+    pl.tick(_state((0.0, 0.0, 3.0), yaw=0.0, t=0.02, seq=1))  # facing the goal, the path leads back
+    pl.tick(_state((0.0, 0.0, 3.0), yaw=math.pi - 0.3, t=0.04, seq=2))  # turned: within the view
+    assert holds == ([True, False] if enabled else [False, False])
+
+
+def test_a_held_reference_waits_at_the_nearest_path_point():
+    from llmland_planner.replanning import ActivePlan
+
+    pl = Planner()
+    path = _backwards_detour()
+    pl.paths.active = ActivePlan(path, [], path.p[-1], 0.0, 1.0)
+    pos = path.p[10] + np.array([0.0, 0.05, 0.0])
+    ref_p, ref_v, _ = pl.paths.reference(pos, hold=True)
+    assert np.allclose(ref_p, path.p[10]) and np.allclose(ref_v, 0.0)
+    ref_p, ref_v, _ = pl.paths.reference(pos)
+    assert ref_p[-1][0] < path.p[10][0] - 1.0 and np.linalg.norm(ref_v[1]) > 0.5  # flying on
