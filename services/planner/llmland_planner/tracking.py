@@ -14,6 +14,10 @@ A body that moves carries both of its visible edges along, so the tracker also k
 the two edge velocities when they have the same sign, else 0 (the *minmod* of the two; LeVeque,
 *Finite Volume Methods for Hyperbolic Problems*, 2002, §6.11). It is what a motion test
 should read; ``velocity_mps`` (the centroid's) stays the conservative speed for prediction.
+A view that cuts the object at an image edge (:attr:`~llmland_schemas.depth.Blob.touches_border`)
+gives no rigid sample, nor does the next view compared with it: where the image edge cuts it,
+the bound is the view's and moves as the camera turns or flies (a tree at the image's side,
+a few pixels wide, "travelled" 1.2 m in one frame while the drone turned along its path).
 
 Forgetting: a track that was not matched accumulates *missed time*, and is dropped once that
 exceeds ``forget_after_s``. When the camera looks away, obstacles leave the field of view but
@@ -72,15 +76,18 @@ def _minmod(a: FloatArray, b: FloatArray) -> FloatArray:
 
 @dataclass(frozen=True)
 class _Seen:
-    """One camera's view of a track: centroid and visible-surface bounds (3,) each, m."""
+    """One camera's view of a track: centroid and visible-surface bounds (3,) each, m; ``cut``:
+    the view cut it at an image edge (its bounds are partly the view's)."""
 
     centroid_m: FloatArray
     lo_m: FloatArray
     hi_m: FloatArray
+    cut: bool = False
 
     @classmethod
     def of(cls, blob: Blob) -> _Seen:
-        return cls(*(np.array(x, dtype=np.float64) for x in (blob.centroid_m, blob.lo_m, blob.hi_m)))
+        c, lo, hi = (np.array(x, dtype=np.float64) for x in (blob.centroid_m, blob.lo_m, blob.hi_m))
+        return cls(c, lo, hi, cut=blob.touches_border)
 
     @classmethod
     def of_track(cls, track: TrackedObstacle) -> _Seen:
@@ -264,7 +271,8 @@ class ObstacleTracker:
         if dt > 1e-6:
             sample = np.zeros((2, 3))  # horizontal only: z velocity stays 0
             sample[0, :2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
-            sample[1, :2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
+            if not (seen.cut or prev.cut):  # an image edge's bound moves with the view, not the body
+                sample[1, :2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
             track.rigid_travel_m[source] = track.rigid_travel_m.get(source, np.zeros(3)) + sample[1] * dt
             previous = self._raw_velocity.get(track.track_id)
             a = self.velocity_alpha

@@ -64,6 +64,9 @@ class Blob:
     #: the cluster reaches the top row of the image: the object may extend above the view,
     #: so ``hi_m[2]`` is only a lower bound of its top
     touches_top: bool = False
+    #: the cluster reaches any edge of the image (top, bottom, left or right): part of the
+    #: object may be out of view, so its bounds are partly the view's, not the object's
+    touches_border: bool = False
 
 
 def backproject(
@@ -225,6 +228,7 @@ def _blobs(p: FloatArray, rows_cols: tuple[NDArray[np.intp], NDArray[np.intp]], 
             bbox_px=(int(u0[k]), int(v0[k]), int(min(u1[k] + stride, width_px)), int(min(v1[k] + stride, height_px))),
             footprint_radius_m=float(radius[k]),
             touches_top=bool(v0[k] == 0),
+            touches_border=bool(v0[k] == 0 or u0[k] == 0 or u1[k] + stride >= width_px or v1[k] + stride >= height_px),
         )
         for rank, k in enumerate(np.argsort(-cnt, kind="stable"))
     ]

@@ -140,3 +140,15 @@ def test_raised_ground() -> None:
     for b, (lo, hi) in zip(match(blobs, BOXES), BOXES, strict=True):
         assert np.allclose(b.lo_m, lo + [0, 0, 0.5], atol=0.3)
         assert np.allclose(b.hi_m, hi + [0, 0, 0.5], atol=0.3)
+
+
+def test_blobs_cut_by_an_image_edge_say_so() -> None:
+    """Whole in view: not cut. Cut by the image's left edge (a box far to the camera's left,
+    straddling the frustum's side): ``touches_border``; its bounds are partly the view's."""
+    whole = find_blobs(raycast(POSE, BOXES), K(), POSE)
+    assert whole and not any(b.touches_border for b in whole)
+    # the left edge of a 90° camera at x=10 m ahead (8 m up, 40° down, slant ≈ 12.8 m) is y ≈ +12.8 m
+    straddling = [box(10.0, 12.5, 1.0, 3.0, 1.5)]
+    cut = find_blobs(raycast(POSE, straddling), K(), POSE)
+    assert len(cut) == 1 and cut[0].touches_border and cut[0].bbox_px[0] == 0
+    assert not cut[0].touches_top
