@@ -39,8 +39,8 @@ def view_half_azimuth_rad(k: CameraIntrinsics, t_world_camera: FloatArray) -> fl
     y down, z forward). Returns 0 when the top row looks straight down (no azimuth to speak of).
     """
     r = np.asarray(t_world_camera, dtype=float)[:3, :3]
-    yn = (0.0 - k.cy) / k.fy
-    rays = [r @ np.array([(u - k.cx) / k.fx, yn, 1.0]) for u in (0.0, float(k.cx), float(k.width))]
+    xn, yn = k.normalized([0.0, float(k.cx), float(k.width)], [0.0, 0.0, 0.0])  # top-left, top-centre, top-right
+    rays = [r @ np.array([float(x), float(y), 1.0]) for x, y in zip(xn, yn, strict=True)]
     if any(float(np.hypot(ray[0], ray[1])) < 1e-9 for ray in rays):
         return 0.0
     centre = _azimuth(rays[1])
