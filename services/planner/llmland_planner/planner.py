@@ -224,7 +224,7 @@ class Planner:
         return ref_pos, ref_vel
 
     def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings,
-                   ahead: FloatArray | None = None) -> None:
+                   ahead: FloatArray | None) -> None:
         """Where the forward camera looks: along the active path while approaching (at the goal
         before the first plan); while holding, at the nearest possible person (their class stays
         fresh), else turning slowly to see all around. ``ahead (3,)``: the active path's point

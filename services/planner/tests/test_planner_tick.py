@@ -85,22 +85,27 @@ def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypa
     assert len(gaps) >= 2 and np.all(gaps >= settings.replan_period_s - 1e-9)
 
 
+def _backwards_detour():
+    """A path leaving backwards (-x) for 5 s, then around toward a goal at +x; z varies."""
+    from llmland_planner.path import Path
+
+    t = np.arange(0.0, 10.0, 0.05)
+    xs = np.where(t < 5.0, -t, -5.0 + 3.0 * (t - 5.0))
+    ys = np.where(t < 5.0, 0.0, 2.0 * (t - 5.0))
+    p = np.column_stack([xs, ys, 3.0 + 0.1 * t])
+    return Path(t, p, np.gradient(p, t, axis=0))
+
+
 def test_approaching_the_camera_looks_along_a_detour_not_at_the_goal():
     """Conservative open_field seed 34 flew backwards along a detour into a tree it had never seen:
     the forward camera faced the goal while the path led away from it."""
     from llmland_planner.landing import Phase, Surroundings
-    from llmland_planner.path import Path
     from llmland_planner.replanning import ActivePlan
 
     pl = Planner()
     pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, 0, 3), target_m=(10, 0, 0)))
     assert abs(pl._yaw_ref) < 1e-9  # facing the goal (+x) before any plan
-    # A detour leaving backwards (-x), then around to the goal.
-    t = np.arange(0.0, 10.0, 0.05)
-    xs = np.where(t < 5.0, -t, -5.0 + 3.0 * (t - 5.0))
-    ys = np.where(t < 5.0, 0.0, 2.0 * (t - 5.0))
-    p = np.column_stack([xs, ys, np.full_like(t, 3.0)])
-    pl.paths.active = ActivePlan(Path(t, p, np.gradient(p, t, axis=0)), [], np.array([10.0, 0, 3]), 0.0, 1.0)
+    pl.paths.active = ActivePlan(_backwards_detour(), [], np.array([10.0, 0, 3]), 0.0, 1.0)
     around = Surroundings([], [], 0.0, lambda _d: [])
     pos, goal = np.array([0.0, 0.0, 3.0]), np.array([10.0, 0.0, 3.0])
     for k in range(1, 80):  # 4 s at 20 Hz: enough to turn π at the hold yaw rate
@@ -123,17 +128,6 @@ def test_look_ahead_is_the_path_end_near_the_goal():
     pl.paths.active = ActivePlan(Path(t, p, np.gradient(p, t, axis=0)), [], p[-1], 0.0, 1.0)
     assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 3.0), p[-1])
     assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 0.5), p[10])
-
-
-def _backwards_detour():
-    """A path leaving backwards (-x) for 5 s, then around toward a goal at +x; z varies."""
-    from llmland_planner.path import Path
-
-    t = np.arange(0.0, 10.0, 0.05)
-    xs = np.where(t < 5.0, -t, -5.0 + 3.0 * (t - 5.0))
-    ys = np.where(t < 5.0, 0.0, 2.0 * (t - 5.0))
-    p = np.column_stack([xs, ys, 3.0 + 0.1 * t])
-    return Path(t, p, np.gradient(p, t, axis=0))
 
 
 def test_look_ahead_starts_from_the_progress_and_measures_horizontally():
