@@ -10,15 +10,17 @@ tracked or not — stays farther than 1 m from the landing point until touchdown
   ``r_i`` and speed ``s_i``) can be anywhere within ``|x − c_i| ≤ r_i + R(a_i + T, s_i)`` by the
   end ``T`` of the descent, where :meth:`HumanMotionBounds.reach_m` integrates the speed bound;
 - anyone not tracked is, by the coverage assumption, outside the downward camera's coverage
-  radius ``R_cov`` (everyone inside it is detected every frame), so can close in by at most
-  ``R(T + frame period, v_max)``;
+  radius ``R_cov`` (everyone inside it is detected every frame: :mod:`.coverage` bounds the
+  detector's point count on a person from below and takes ``R_cov`` where that bound is at least
+  the detector's minimum), so can close in by at most ``R(T + frame period, v_max)``;
 - the landing point is the vehicle's horizontal position at touchdown, within ``xy_margin_m``.
 
 Assumptions (what the guarantee rests on): people's speed ≤ ``max_speed_mps`` (ISO 13855:2010
 sizes separation distances for a walking approach speed of 1.6 m/s), their speed grows by at
 most ``step_speed_mps`` at once (a first step) plus ``max_accel_mps2`` thereafter from the
 tracked speed (tracking error ≤ ``speed_error_mps``), heads ≤ :data:`PERSON_MAX_HEIGHT_M`;
-every person within ``R_cov`` is detected in every downward frame (no occlusion from above);
+every person within ``R_cov`` is detected in every downward frame (their torso contains
+:class:`.coverage.PersonTorso`, nothing occludes it from above, the depth is complete over it);
 people are classified as possible people (an unknown or stale class counts as one); the
 vehicle follows its descent profile within ``time_margin_s`` and ``xy_margin_m``. If one of
 them fails (a runner, a missed detection), the per-tick check sees the reachable set touch and
@@ -92,19 +94,6 @@ class Clearance:
     @property
     def safe(self) -> bool:
         return self.margin_m >= 0.0
-
-
-def coverage_radius_m(height_m: float, half_fov_rad: float, tilt_rad: float = 0.0,
-                      visible_height_m: float = 1.0) -> float:
-    """Horizontal radius (m) around the vehicle within which the downward camera sees a person.
-
-    A person is seen when their body below ``visible_height_m`` is in view: out to
-    ``(h − visible_height) · tan(half_fov − tilt)``; 0 when the vehicle is lower than that.
-    """
-    ang = half_fov_rad - abs(tilt_rad)
-    if ang <= 0.0 or height_m <= visible_height_m:
-        return 0.0
-    return (height_m - visible_height_m) * math.tan(min(ang, math.radians(85.0)))
 
 
 def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], duration_s: float,

@@ -25,9 +25,10 @@ from llmland_schemas import (
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.frames import CameraFrame
 
+from .coverage import detection_radius_m
 from .dynamics import ModelParams
-from .hard_limit import REACH_CEILING_M, coverage_radius_m
-from .landing import LandingLogic, Phase, Surroundings
+from .hard_limit import REACH_CEILING_M
+from .landing import HOLD_LOST_M, LandingLogic, Phase, Surroundings
 from .look_ahead import must_turn_first
 from .mpc import MpcController, MpcResult
 from .regions import UnsafeRegion
@@ -122,9 +123,13 @@ class Planner:
         w, s = self.world, self.settings
         coverage = 0.0
         fresh = w.last_down_stamp_s is not None and t - w.last_down_stamp_s <= DOWN_FRAME_FRESH_S
-        if w.down_half_fov_rad is not None and fresh:
-            coverage = coverage_radius_m(float(pos[2] - self.landing.target_m[2]), w.down_half_fov_rad, tilt_rad,
-                                         s.coverage_visible_height_m)
+        off_target = float(np.linalg.norm(pos[:2] - self.landing.target_m[:2]))
+        if w.down_intrinsics is not None and fresh and off_target < HOLD_LOST_M:
+            # about the landing point: the radius around the vehicle less the vehicle's offset from it
+            radius = detection_radius_m(w.down_intrinsics, float(pos[2] - self.landing.target_m[2]), tilt_rad,
+                                        stride=s.down_blob_stride, min_points=s.down_blob_min_points,
+                                        torso=s.coverage_torso)
+            coverage = max(0.0, radius - off_target)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration))
 
     def tick(self, state: VehicleState) -> TickOutput:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pydantic import model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from .coverage import PersonTorso
 from .tracking import FORGET_AFTER_S, GATE_M, PREDICT_CAP_S
 
 
@@ -49,6 +51,7 @@ class PlannerSettings(BaseSettings):
     #: a track that should have been seen but was not is dropped after this long (s)
     track_forget_s: float = FORGET_AFTER_S
     blob_stride: int = 2
+    blob_min_points: int = 20
     #: depth points less than this (m) above the estimated ground are ground
     ground_tolerance_m: float = 0.25
     max_range_m: float = 30.0
@@ -66,8 +69,14 @@ class PlannerSettings(BaseSettings):
     descent_time_margin_s: float = 0.2
     #: the sim's touchdown detection needs this long (s) low and slow
     touchdown_dwell_s: float = 0.3
-    #: downward camera: a person is seen when their body below this height (m) is in view
-    coverage_visible_height_m: float = 1.0
+    #: downward camera's detector: blobs sampled every this many pixels, kept from this many points
+    #: (finer than the forward camera's: a person seen from above covers few pixels)
+    down_blob_stride: int = 1
+    down_blob_min_points: int = 6
+    #: the smallest upright torso the coverage guarantee protects (coverage.PersonTorso; m)
+    coverage_torso_radius_m: float = 0.10
+    coverage_torso_bottom_m: float = 0.9
+    coverage_torso_top_m: float = 1.25
     #: downward frames arrive this often (s) (the untracked bound adds one period)
     coverage_frame_period_s: float = 0.2
     #: without a downward camera the untracked bound cannot be shown: never descend
@@ -96,3 +105,16 @@ class PlannerSettings(BaseSettings):
     #: view (look_ahead.py); off flies the path while the camera is still turning
     look_before_flying: bool = True
     scan_yaw_rate_rps: float = 0.5
+
+    @model_validator(mode="after")
+    def _check_torso(self) -> PlannerSettings:
+        if not self.ground_tolerance_m < self.coverage_torso_bottom_m < self.coverage_torso_top_m:
+            raise ValueError("coverage torso: need ground_tolerance_m < coverage_torso_bottom_m < coverage_torso_top_m "
+                             f"(got {self.ground_tolerance_m}, {self.coverage_torso_bottom_m}, "
+                             f"{self.coverage_torso_top_m}): torso points must not be taken for ground")
+        return self
+
+    @property
+    def coverage_torso(self) -> PersonTorso:
+        """The torso model of the downward camera's coverage guarantee (coverage.py)."""
+        return PersonTorso(self.coverage_torso_radius_m, self.coverage_torso_bottom_m, self.coverage_torso_top_m)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from llmland_schemas import SEMANTIC_METHODS, SafetySpec, SafetySpecMessage
+from llmland_schemas import SEMANTIC_METHODS, CameraIntrinsics, SafetySpec, SafetySpecMessage
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.depth import Blob, backproject, find_blobs
 from llmland_schemas.frames import CameraFrame
@@ -88,7 +88,7 @@ class WorldModel:
                                        predict_cap_s=s.predict_cap_s, gate_growth_mps=s.human_max_speed_mps)
         self.pending: list[PendingSpec] = []
         self._views: dict[float, dict[str, tuple[list[Blob], VisibleFn]]] = {}
-        self.down_half_fov_rad: float | None = None  # known once a downward frame arrived
+        self.down_intrinsics: CameraIntrinsics | None = None  # known once a downward frame arrived
         #: half the forward camera's azimuth range (rad, :func:`~.look_ahead.view_half_azimuth_rad`)
         self.forward_half_azimuth_rad: float | None = None
         self.last_down_stamp_s: float | None = None
@@ -111,15 +111,18 @@ class WorldModel:
         if frame.depth_m is None:
             return
         s = self.settings
-        pts = backproject(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, s.blob_stride)
-        if self.ground is not None:
-            step = GROUND_POINT_STRIDE
+        down = frame.header.camera == "down"
+        stride, min_points = ((s.down_blob_stride, s.down_blob_min_points) if down
+                              else (s.blob_stride, s.blob_min_points))
+        pts = backproject(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride)
+        if self.ground is not None:  # the same ground-point density whatever the camera's stride
+            step = max(1, GROUND_POINT_STRIDE * s.blob_stride // stride)
             self.ground.stage(frame.header.stamp, frame.header.camera, pts[::step, ::step])
-        blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=s.blob_stride,
-                           max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m, points_world=pts,
-                           ground_height_fn=self.ground.height if self.ground is not None else None)
-        if frame.header.camera == "down":
-            self.down_half_fov_rad = frame.header.intrinsics.half_fov_rad
+        blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=stride,
+                           min_points=min_points, max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m,
+                           points_world=pts, ground_height_fn=self.ground.height if self.ground is not None else None)
+        if down:
+            self.down_intrinsics = frame.header.intrinsics
             self.last_down_stamp_s = frame.header.stamp
         else:
             self.forward_half_azimuth_rad = view_half_azimuth_rad(frame.header.intrinsics, frame.T_world_camera)

@@ -1,4 +1,4 @@
-"""The hard limit's reachable-set gate: bounds, coverage, and a property test against people who
+"""The hard limit's reachable-set gate: bounds, the untracked bound, and a property test against people who
 move as adversarially as the stated bounds allow."""
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from llmland_planner.hard_limit import (
     HumanMotionBounds,
     PersonHypothesis,
     commit_clearance,
-    coverage_radius_m,
 )
 from llmland_planner.landing import LandingLogic, Surroundings
 from llmland_planner.settings import PlannerSettings
@@ -38,13 +37,6 @@ def test_reach_is_monotone_and_capped_by_the_walking_speed() -> None:
     assert BOUNDS.reach_m(2.0, None) == pytest.approx(3.2)  # unknown speed: already at 1.6 m/s
     standing = BOUNDS.reach_m(2.0, 0.0)
     assert 2.8 < standing < 3.2  # a standing person needs a step and acceleration first
-
-
-def test_coverage_radius_follows_the_camera_geometry() -> None:
-    half = math.radians(70.0)
-    assert coverage_radius_m(3.5, half) == pytest.approx(2.5 * math.tan(half))
-    assert coverage_radius_m(3.5, half, tilt_rad=math.radians(20.0)) == pytest.approx(2.5 * math.tan(math.radians(50)))
-    assert coverage_radius_m(0.9, half) == 0.0
 
 
 def test_untracked_people_bound_needs_enough_coverage() -> None:

@@ -25,7 +25,7 @@ class SimSettings(BaseSettings):
     #: downward landing camera (RGB-D, straight down, wide angle): published on
     #: ``sim/camera_down`` at this rate (0 disables), rendered with the forward camera's frames
     down_camera_hz: float = 5.0
-    down_camera_size: int = 160
+    down_camera_size: int = 400
     #: full field of view (deg) of the square downward image: 140° sees the ground up to
     #: 2.7 × the height around the vehicle (the planner's coverage argument, DESIGN §6)
     down_camera_fov_deg: float = 140.0
