@@ -86,22 +86,22 @@ def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
 def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:
     """How the method sees one track at ``t_s``.
 
-    Semantic methods trust the spec: a thing the KB calls static is not swept along an
-    apparent motion (the visible surface of a tree shifts as the drone moves around it),
-    unless it is person-sized and moves or has moved: then the class was misread and it may be a person.
-    A static spec that cannot say whether it is human (``is_human`` None: the LLM without
-    retrieval, an unknown noun) makes anything that moves or has moved a possible person, as
-    geometry alone would (seen from above, a person's blob is not person-sized).
+    Semantic methods trust the spec for the keep-out: a thing the KB calls static is not swept
+    along an apparent motion (the visible surface of a tree shifts as the drone moves around it).
+    Not for who may be a person: a thing with a static spec that moves or has moved (the rigid
+    motion test, :func:`is_moving`) contradicts its spec, so the class was misread and it is a
+    possible person, as geometry alone would say — whether the spec says "not human" or cannot
+    say. (It used to take "not human" for a misread only when the thing was also person-sized;
+    seen from above a person's blob is not, and the LLM without retrieval, which read a walking
+    person as a static non-human thing, let them walk under its descent: exp1 seed 3.)
     """
     s, moving = settings, is_moving(tr, settings)
     if method in SEMANTIC_METHODS:
         spec = spec_in_force(tr, t_s, settings)
         if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
             person = spec.is_human is not False
-        elif spec.is_human is None:  # the spec cannot say (the LLM alone, an unknown noun):
-            person = moving or tr.has_moved  # never less careful than geometry alone
-        else:  # a static class: a misread only if it is person-sized and has moved
-            person = bool(spec.is_human) or ((moving or tr.has_moved) and person_sized(tr, s))
+        else:  # a static class that moves was misread: never less careful than geometry alone
+            person = bool(spec.is_human) or moving or tr.has_moved
         believed = moving and (spec.is_dynamic or person)
         return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
                          human=spec.is_human is True)

@@ -161,6 +161,27 @@ def test_a_mover_the_spec_calls_static_without_saying_human_is_a_possible_person
     assert len(wm.people(t - 0.5)) == 1
 
 
+def test_a_mover_the_spec_calls_static_and_not_human_is_a_possible_person():
+    """`llm` misread the walking person of exp1 seed 3 as a static, non-human thing; from above the
+    person's blob is not person-sized, so the misread rule (person-sized and moving) missed them,
+    the gate opened with them 1.35 m from the pad and they walked under the descent (0.65 m at
+    b9affde). A thing that moves contradicts a static spec: it is a possible person whatever the
+    spec says of its class, as geometry alone would say."""
+    s = PlannerSettings()
+    wm = WorldModel(s, "llm")
+    rock = SafetySpec(is_dynamic=False, is_human=False, z_min=0.0, buffer_m=0.5, label="rock", source="llm")
+    t, x = 0.0, 5.0
+    for _ in range(6):  # a head-and-shoulders blob from above, walking at 1.2 m/s
+        wm.tracker.update([_blob(x, 0.0, h=0.4)], t)
+        wm.on_spec(SafetySpecMessage(stamp=t, scene=rock, latency_ms=0.0, objects=[
+            ObjectSpec(obj_id="b0", centroid_m=(x, 0.0, 0.2), size_m=(0.5, 0.5, 0.4), spec=rock)]))
+        wm.release_specs(t)
+        wm.ingest(t)
+        t, x = t + 0.5, x + 0.6
+    assert wm.spec_for(wm.tracker.tracks()[0], t - 0.5).is_human is False
+    assert len(wm.people(t - 0.5)) == 1
+
+
 def test_a_parked_car_coming_into_view_is_not_swept() -> None:
     # Seen from a drone descending near it, a parked car's visible bounds grow along its length:
     # its centroid is displaced by metres at > 1 m/s, but its edges do not move together.
