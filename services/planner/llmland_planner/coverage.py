@@ -22,7 +22,9 @@ detector's cluster gap, so they form one cluster of at least that many points.
 
 Assumptions: a person's torso contains :class:`PersonTorso` (children and people lying down may
 not), nothing occludes it from above, the depth image is complete over it (no dropouts), the
-camera looks straight down up to the vehicle's tilt, and the radius, checked every
+ground estimate under them is within ``torso.bottom_m − ground tolerance`` (0.65 m by default)
+of the true ground (so no torso point is taken for ground), the camera looks straight down up
+to the vehicle's tilt, and the radius, checked every
 :data:`OFFSET_STEP_M`, holds between those checks (the count varies smoothly with the offset).
 """
 
