@@ -72,6 +72,7 @@ class Planner:
 
     def __init__(self, settings: PlannerSettings | None = None, params: ModelParams | None = None) -> None:
         self.settings = s = settings or PlannerSettings()
+        self._torso = s.coverage_torso  # built once: the coverage lookup runs every tick near the target
         self.params = params or ModelParams()
         self.mpc = MpcController(self.params, horizon=s.horizon, dt=s.mpc_dt_s, max_halfspaces=s.max_halfspaces)
         self.paths = Replanner(s)
@@ -128,7 +129,7 @@ class Planner:
             # about the landing point: the radius around the vehicle less the vehicle's offset from it
             radius = detection_radius_m(w.down_intrinsics, float(pos[2] - self.landing.target_m[2]), tilt_rad,
                                         stride=s.down_blob_stride, min_points=s.down_blob_min_points,
-                                        torso=s.coverage_torso)
+                                        torso=self._torso)
             coverage = max(0.0, radius - off_target)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration))
 
