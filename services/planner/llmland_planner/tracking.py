@@ -186,6 +186,8 @@ class ObstacleTracker:
         self._last_by_source: dict[tuple[str, str], tuple[_Seen, float]] = {}
         self._next_id = 0
         self._last_update_s: float | None = None
+        #: bumps whenever the live tracks may have changed (an update or a motion mark)
+        self.revision = 0
 
     def update(
         self, blobs: Sequence[Blob], stamp_s: float, visible_fn: VisibleFn | None = None, source: str = ""
@@ -196,6 +198,7 @@ class ObstacleTracker:
         same camera (two cameras see different surfaces of an object: that shift is not motion).
         Several cameras' frames of one instant are fed one after the other with the same stamp.
         """
+        self.revision += 1
         dt_frame = 0.0 if self._last_update_s is None else max(0.0, stamp_s - self._last_update_s)
         self._last_update_s = stamp_s
         matched_tracks: set[int] = set()
@@ -295,6 +298,7 @@ class ObstacleTracker:
 
     def mark_moved(self, is_moving: Callable[[TrackedObstacle], bool]) -> None:
         """Set ``has_moved`` on every live track that ``is_moving`` says moves now (sticky)."""
+        self.revision += 1
         for t in self._tracks:
             t.has_moved = t.has_moved or is_moving(t)
 

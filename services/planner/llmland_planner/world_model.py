@@ -95,6 +95,10 @@ class WorldModel:
         self.specs_applied = 0
         self.spec_latencies_ms: list[float] = []
         self.version = 0  # bumps when tracks or specs change
+        #: :meth:`views` of the last queried time, valid while the tracks and their specs stay
+        #: as they were (one tick asks three times: keep-out, possible people, the landing disc)
+        self._views_cache: tuple[tuple[float, int, int], list[TrackView]] | None = None
+        self._specs_revision = 0
 
     @property
     def semantic(self) -> bool:
@@ -165,6 +169,7 @@ class WorldModel:
         due = [s for s in self.pending if is_due(s)]
         if not due:
             return
+        self._specs_revision += 1
         self.pending = [s for s in self.pending if not is_due(s)]
         # One object may be several blobs (a tree's trunk and crown): every track within its
         # footprint takes its spec. One blob may be several objects (a person walking past a
@@ -197,7 +202,15 @@ class WorldModel:
         return view_track(tr, t_s, self.method, self.settings)
 
     def views(self, t_s: float) -> list[TrackView]:
-        return [self.view(tr, t_s) for tr in self.tracker.tracks()]
+        """Every live track as the method sees it at ``t_s`` (copies; computed once per time and
+        state of the tracks and specs)."""
+        key = (t_s, self.tracker.revision, self._specs_revision)
+        cached = self._views_cache
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        out = [self.view(tr, t_s) for tr in self.tracker.tracks()]
+        self._views_cache = (key, out)
+        return out
 
     def _footprint(self, v: TrackView, t_pred_s: float) -> tuple[FloatArray, FloatArray, float, float]:
         """Centre (2,), footprint half sizes (2,) along x and y, height and ground z of a track moved

@@ -275,3 +275,18 @@ def test_a_still_thing_whose_edges_jump_together_once_has_not_moved() -> None:
         wm.ingest(0.2 * k)
     (tr,) = wm.tracker.tracks()
     assert tr.has_moved and wm.view(tr, 2.2).possible_person
+
+
+def test_views_at_one_time_follow_new_tracks_and_specs():
+    """One tick asks for the views three times and they are computed once; a tracker update or a
+    released spec at that same time must still show (the cache is keyed on both)."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    first = wm.views(0.0)
+    assert wm.views(0.0) is first  # computed once
+    wm.tracker.update([_blob(5.0, 0.0), _blob(-5.0, 2.0)], 0.0)
+    assert len(wm.views(0.0)) == 2
+    assert wm.views(0.0)[0].buffer_m == CONSERVATIVE_BUFFER_M  # no spec yet
+    wm.on_spec(_person_spec(0.0, 0.0))
+    wm.release_specs(0.0)
+    assert {v.buffer_m for v in wm.views(0.0)} == {3.0, CONSERVATIVE_BUFFER_M}

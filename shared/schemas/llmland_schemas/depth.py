@@ -77,6 +77,14 @@ def backproject(
     Subsampled pixel ``[i, j]`` is full-resolution pixel ``(u, v) = (j * stride, i * stride)``.
     Points are NaN where the depth is invalid (non-finite or ``<= 0``).
     """
+    return _interleaved(_backproject_planar(depth_m, intrinsics, T_world_camera, stride))
+
+
+def _backproject_planar(
+    depth_m: NDArray[np.floating], intrinsics: CameraIntrinsics, T_world_camera: NDArray[np.floating], stride: int
+) -> FloatArray:
+    """:func:`backproject` as three planes: (3, H', W') float64 (world x, y, z), component by
+    component (the same operations in the same order as the vector form below, so the same bits)."""
     if stride < 1:
         raise ValueError(f"stride must be >= 1, got {stride}")
     d = np.asarray(depth_m, dtype=np.float64)[::stride, ::stride]
@@ -88,8 +96,37 @@ def backproject(
     T = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)
     R, t = T[:3, :3], T[:3, 3]
     # p_world = R @ (d*xn, d*yn, d) + t = d * (xn*R[:,0] + yn*R[:,1] + R[:,2]) + t
-    rays = xn[None, :, None] * R[:, 0] + yn[:, None, None] * R[:, 1] + R[:, 2]  # (H', W', 3)
-    return np.asarray(d[:, :, None] * rays + t, dtype=np.float64)
+    out = np.empty((3, h, w))
+    for c in range(3):
+        plane = out[c]
+        np.add((xn * R[c, 0])[None, :], (yn * R[c, 1])[:, None], out=plane)
+        plane += R[c, 2]
+        plane *= d
+        plane += t[c]
+    return out
+
+
+def _planes(points_world: FloatArray) -> FloatArray:
+    """(..., 3) points as contiguous (3, ...) planes: component-wise arithmetic on them is several
+    times faster than on the interleaved array."""
+    return np.ascontiguousarray(np.moveaxis(np.asarray(points_world, dtype=np.float64), -1, 0))
+
+
+def _interleaved(planes: FloatArray) -> FloatArray:
+    """(3, ...) planes as contiguous (..., 3) points (the inverse of :func:`_planes`)."""
+    return np.ascontiguousarray(np.moveaxis(planes, 0, -1))
+
+
+def _squared_distance(a: FloatArray, b: FloatArray) -> FloatArray:
+    """``sum((a - b) ** 2)`` over the leading axis of length 3, summed in numpy's order
+    (``(dx² + dy²) + dz²``), so the same bits as ``np.sum(..., axis=-1)`` on interleaved points."""
+    d = a[0] - b[0]
+    s = d * d
+    d = a[1] - b[1]
+    s += d * d
+    d = a[2] - b[2]
+    s += d * d
+    return s
 
 
 def ground_mask(
@@ -100,8 +137,12 @@ def ground_mask(
     The ground is ``z = 0`` unless ``ground_height_fn(x, y)`` gives its height. NaN points are
     not ground.
     """
-    pts = np.asarray(points_world, dtype=np.float64)
-    x, y, z = pts[..., 0], pts[..., 1], pts[..., 2]
+    return _ground_mask_planes(_planes(points_world), ground_height_fn, tol_m)
+
+
+def _ground_mask_planes(planes: FloatArray, ground_height_fn: GroundHeightFn | None, tol_m: float) -> BoolArray:
+    """:func:`ground_mask` of (3, ...) point planes."""
+    x, y, z = planes[0], planes[1], planes[2]
     if ground_height_fn is None:
         height = z
     else:
@@ -111,18 +152,18 @@ def ground_mask(
         return np.asarray(height < tol_m)
 
 
-def _label_edges(points: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
+def _label_edges(planes: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
     """Connected components of ``valid`` pixels whose 4-neighbours are closer than ``gap_m`` in 3D.
 
-    Works on a (2H-1, 2W-1) grid where even cells are pixels and odd cells the edges between
-    them, so one ``ndimage.label`` pass respects depth discontinuities. Returns (H, W) labels
-    (0 = none) and the count.
+    ``planes``: (3, H, W) world points. Works on a (2H-1, 2W-1) grid where even cells are pixels
+    and odd cells the edges between them, so one ``ndimage.label`` pass respects depth
+    discontinuities. Returns (H, W) labels (0 = none) and the count.
     """
     h, w = valid.shape
     gap2 = gap_m * gap_m
     with np.errstate(invalid="ignore"):
-        dh = np.sum((points[:, 1:] - points[:, :-1]) ** 2, axis=-1) < gap2  # NaN -> False
-        dv = np.sum((points[1:, :] - points[:-1, :]) ** 2, axis=-1) < gap2
+        dh = _squared_distance(planes[:, :, 1:], planes[:, :, :-1]) < gap2  # NaN -> False
+        dv = _squared_distance(planes[:, 1:, :], planes[:, :-1, :]) < gap2
     grid = np.zeros((2 * h - 1, 2 * w - 1), dtype=bool)
     grid[::2, ::2] = valid
     grid[::2, 1::2] = dh & valid[:, 1:] & valid[:, :-1]
@@ -155,14 +196,18 @@ def find_blobs(
     caller already has it. Note the neighbour spacing grows with range (``stride * range / fx``): keep
     ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
     """
-    pts = backproject(depth_m, intrinsics, T_world_camera, stride) if points_world is None else points_world
+    if points_world is None:
+        planes = _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
+        pts = _interleaved(planes)
+    else:
+        pts, planes = points_world, _planes(points_world)
     cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
     with np.errstate(invalid="ignore"):
-        near = np.sum((pts - cam) ** 2, axis=-1) <= max_range_m * max_range_m
-    valid = near & ~ground_mask(pts, ground_height_fn, ground_tol_m)
+        near = _squared_distance(planes, cam[:, None, None]) <= max_range_m * max_range_m
+    valid = near & ~_ground_mask_planes(planes, ground_height_fn, ground_tol_m)
     if not valid.any():
         return []
-    labels, n = _label_edges(pts, valid, cluster_gap_m)
+    labels, n = _label_edges(planes, valid, cluster_gap_m)
     if n == 0:
         return []
     sel, lab = _kept_cluster_points(labels, n, min_points)
