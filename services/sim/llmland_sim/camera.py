@@ -12,6 +12,16 @@ pixel corners (``cx = W / 2``, ``cy = H / 2 - 1``); using the wrong one tilts ba
 rays by half a pixel (≈ 8 cm height error on the ground at 50 m for 384 px / 90°).
 
 Renderers (``tiny``, ``egl``, ``auto``): :mod:`.renderer`.
+
+Shadows and speed with EGL: pybullet's EGL renderer (``GLInstancingRenderer``) draws every
+frame into a 4096×4096 shadow map first, whatever ``getCameraImage(shadow=...)`` says; on Mesa
+llvmpipe that pass is most of a frame (≈ 20 of 30 ms at 384×384, single-threaded, and as much
+at 32×32). Its projective-texture mode is the one pass that skips it, so a camera without
+shadows (the default) renders through it with a projector that maps world ``(x, y)`` to
+texture coordinates ``(x, y) / GRASS_TILE_M``: the planar coordinates the ground meshes carry,
+so textured ground looks as before, less the shadows. Depth is the same bit for bit (the pass
+only changes the fragment colour); vertical textured faces get their texture stretched along
+``z``. ``shadows=True`` keeps pybullet's shadow-mapped pass.
 """
 
 from __future__ import annotations
@@ -29,11 +39,23 @@ from llmland_schemas.arrays import FloatArray, VecLike
 from numpy.typing import NDArray
 
 from .renderer import egl_active, prepare_renderer
+from .world.shapes.textures import GRASS_TILE_M
 
 logger = logging.getLogger(__name__)
 
 #: Colour given to background pixels (nothing within the far plane), RGB uint8.
 SKY_RGB = (185, 210, 235)
+
+
+def planar_texture_projector(tile_m: float = GRASS_TILE_M) -> tuple[list[float], list[float]]:
+    """(view, projection) matrices, column-major 16 floats each, for pybullet's projective-texture
+    pass: texture coordinates ``(x, y) / tile_m`` of the world point ``(x, y, z)`` (the shader
+    divides by the third row, here 1)."""
+    proj = np.array([[1.0 / tile_m, 0.0, 0.0, 0.0],
+                     [0.0, 1.0 / tile_m, 0.0, 0.0],
+                     [0.0, 0.0, 0.0, 1.0],
+                     [0.0, 0.0, 0.0, 1.0]])
+    return [float(v) for v in np.eye(4).ravel()], [float(v) for v in proj.T.ravel()]
 
 # --------------------------------------------------------------------------- geometry
 
@@ -94,7 +116,7 @@ class RgbdCamera:
         near, far: clipping planes (m); depth beyond ``far`` is ``inf``.
         renderer: ``"auto"``, ``"tiny"`` or ``"egl"`` (see the module docstring).
         shadows: cast shadows (off by default: EGL shadow maps show acne on the thin ground
-            decorations and the TinyRenderer gets slower).
+            decorations, and both renderers get slower; see the module docstring for EGL).
         light_direction: direction towards the light, world frame (unit-less).
     """
 
@@ -131,6 +153,7 @@ class RgbdCamera:
             intr = intr.model_copy(update={"cx": width / 2.0, "cy": height / 2.0 - 1.0})
         self.intrinsics = intr
         self._pb_renderer = p.ER_TINY_RENDERER if self.renderer == "tiny" else p.ER_BULLET_HARDWARE_OPENGL
+        self._texture_projector = planar_texture_projector()
         self._proj = list(
             p.computeProjectionMatrixFOV(
                 fov=self.intrinsics.vfov_deg,
@@ -178,6 +201,10 @@ class RgbdCamera:
         w, h = intr.width, intr.height
         t_wc = self.camera_pose(pos_m, quat_xyzw)
         flags = 0 if with_seg else p.ER_NO_SEGMENTATION_MASK
+        extra: dict[str, list[float]] = {}
+        if self.renderer == "egl" and not self.shadows:  # skip the shadow-map pass (module docstring)
+            flags |= p.ER_USE_PROJECTIVE_TEXTURE
+            extra["projectiveTextureView"], extra["projectiveTextureProj"] = self._texture_projector
         t0 = time.perf_counter()
         _, _, rgba, depth, seg = p.getCameraImage(
             w,
@@ -189,6 +216,7 @@ class RgbdCamera:
             shadow=int(self.shadows),
             lightDirection=self.light_direction,
             physicsClientId=self.client,
+            **extra,
         )
         dt = time.perf_counter() - t0
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[..., :3].copy()
