@@ -9,6 +9,14 @@ Clock modes (DESIGN §4): ``lockstep`` publishes each tick's state and waits, bo
 controller compute time `tick_ms` exceeded the control period, is counted and the
 vehicle holds its last input, then holds position); ``realtime`` paces ticks to the wall
 clock and applies the newest command.
+
+Camera frames due at a tick are rendered from that tick's state *after* the state is
+published, while the planner computes its command, and reach the planner with the next
+tick's state: a camera-to-planner latency of one control period (20 ms at 50 Hz; real
+cameras take 20–50 ms from exposure to host). Frames keep the stamp of the instant they
+show, so every age the planner computes (the hard limit's reach growth) includes it.
+Rendering in the shadow of the planner's tick is what lets a lockstep episode use both
+cores instead of taking turns.
 """
 
 from __future__ import annotations
@@ -120,8 +128,9 @@ class SimService:
         due = Schedule(self.settings.camera_hz, self.settings.truth_hz, self.settings.down_camera_hz)
         wall0 = time.perf_counter()
         while not self.sim.done and not self.stop.is_set():
-            self._publish_due(due, mission)
+            self._before_state(due)
             state = self._publish_state(mission)
+            self._publish_frames(due, mission)  # rendered while the planner computes this tick
             cmd = self._await_command(mission, wall0)
             self._record_tick(state, cmd)
             with self.walls.time("physics"):
@@ -155,20 +164,28 @@ class SimService:
                                         connect_url=s.rerun_connect)
         return mission
 
-    def _publish_due(self, due: Schedule, mission: MissionGoal) -> None:
-        """What is due before this tick's state: truth, the perception wait (lockstep), frames."""
+    def _before_state(self, due: Schedule) -> None:
+        """What is due before this tick's state: truth and the perception wait (lockstep)."""
         t_s = self.sim.t_s
         if due.truth(t_s):
             self._publish_truth()
         if self.clock is not None:  # latency-faithful perception (DESIGN §4)
             with self.walls.time("perception_wait"):
                 self.clock.wait_before(t_s, self.stop)
-        if due.camera(t_s):
-            with self.walls.time("camera"):
-                self._camera_seq = self._publish_frame(mission)
+
+    def _publish_frames(self, due: Schedule, mission: MissionGoal) -> None:
+        """The camera frames due at this tick, from this tick's state (the next state names them).
+
+        The downward frame first: the planner's heavier frame (more depth points) then
+        overlaps the forward camera's rendering.
+        """
+        t_s = self.sim.t_s
         if due.down_camera(t_s):
             with self.walls.time("camera"):
                 self._down_seq = self._publish_down_frame(mission)
+        if due.camera(t_s):
+            with self.walls.time("camera"):
+                self._camera_seq = self._publish_frame(mission)
 
     def _record_tick(self, state: VehicleState, cmd: ControlCommand | None) -> None:
         """To Rerun, once the planner has answered: recording never competes with its tick."""
@@ -213,7 +230,8 @@ class SimService:
                                block=mission.clock == "lockstep")
 
     def _publish_state(self, mission: MissionGoal) -> VehicleState:
-        """This tick's state, with the frames and specs in effect at this tick (lockstep)."""
+        """This tick's state, naming the frames published before it and the specs in effect at
+        this tick (lockstep)."""
         sim = self.sim
         released = self.clock.released_upto_s(sim.t_s) if self.clock is not None else None
         lockstep = mission.clock == "lockstep"

@@ -1,0 +1,63 @@
+"""The lockstep loop's order: a tick's frames are rendered after its state is out, and the next
+state names them (the planner computes while the sim renders)."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from llmland_schemas import ControlCommand, MissionGoal, Topic, VehicleState, key
+from llmland_schemas.frames import decode_frame
+from llmland_sim.main import SimService
+from llmland_sim.settings import SimSettings
+from pydantic import BaseModel
+
+
+class _LoopbackBus:
+    """Records what the sim publishes, in order; answers every state with a hover command at once
+    (a planner with no compute time)."""
+
+    def __init__(self) -> None:
+        self.log: list[tuple[str, Any]] = []
+        self._subs: dict[str, Callable[[str, Any], None]] = {}
+
+    def subscribe(self, k: str, _model: type[BaseModel], callback: Callable[[str, Any], None]) -> None:
+        self._subs[k] = callback
+
+    def announce(self, _token: str) -> None:
+        pass
+
+    def publish(self, k: str, msg: BaseModel, *, express: bool = False) -> None:
+        self.log.append((k, msg))
+        if isinstance(msg, VehicleState):
+            cmd = ControlCommand(stamp=msg.stamp, seq=msg.seq, state_seq=msg.seq, body_rates_rps=(0.0, 0.0, 0.0),
+                                 thrust_n=9.81, mode="hover", source="test")
+            self._subs[key("d0", Topic.COMMAND)](k, cmd)
+
+    def publish_bytes(self, k: str, payload: bytes, *, block: bool = False) -> None:
+        self.log.append((k, decode_frame(payload).header))
+
+
+def test_frames_of_a_tick_follow_its_state_and_are_named_by_the_next() -> None:
+    bus = _LoopbackBus()
+    service = SimService(SimSettings(renderer="tiny", camera_width=64, camera_height=64, down_camera_size=64),
+                         bus, threading.Event())  # type: ignore[arg-type]
+    try:
+        service.run_episode(MissionGoal(episode_id="e", world="open_field", seed=1, method="baseline",
+                                        clock="lockstep", timeout_s=0.5))
+    finally:
+        service.sim.close()
+    states = [m for k, m in bus.log if isinstance(m, VehicleState)]
+    frames = [(i, m) for i, (k, m) in enumerate(bus.log) if k.endswith(("/sim/camera", "/sim/camera_down"))]
+    assert len(states) == 25 and len(frames) == 2 * 3  # 5 Hz, both cameras, t = 0, 0.2, 0.4 s
+    position = {id(m): i for i, (_k, m) in enumerate(bus.log)}
+    by_seq = {st.seq: st for st in states}
+    assert states[0].camera_seq is None and states[0].down_camera_seq is None  # nothing rendered yet
+    for i, header in frames:
+        state = by_seq[header.seq]
+        assert position[id(state)] < i  # rendered after the state of its tick went out ...
+        after = by_seq[header.seq + 1]
+        named = after.down_camera_seq if header.camera == "down" else after.camera_seq
+        assert named == header.seq and position[id(after)] > i  # ... and named by the next one
+        assert header.stamp == state.stamp  # it shows the instant of its tick
