@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import cached_property
 
 import numpy as np
 from llmland_schemas.arrays import FloatArray
@@ -57,10 +58,18 @@ class Surroundings:
 
     regions: list[UnsafeRegion]
     people: list[PersonHypothesis]
-    #: radius (m) around the vehicle within which the downward camera sees everyone (0: none)
-    coverage_m: float
+    #: radius (m) around the vehicle within which the downward camera sees everyone (0: none), or
+    #: a function giving it, called only when it is needed (see :attr:`coverage_m`)
+    coverage: float | Callable[[], float]
     #: regions the landing disc must stay clear of during a descent of the given duration (s)
     landing_regions: Callable[[float], list[UnsafeRegion]]
+
+    @cached_property
+    def coverage_m(self) -> float:
+        """The coverage radius (m), evaluated at most once: only the gate of a descent not yet
+        committed reads it (and displays), and a radius at a new height or tilt costs a table
+        entry of :func:`~.coverage.detection_radius_m` (tens of ms)."""
+        return float(self.coverage() if callable(self.coverage) else self.coverage)
 
 
 @dataclass(frozen=True)

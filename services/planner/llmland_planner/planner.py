@@ -119,18 +119,22 @@ class Planner:
 
     # ------------------------------------------------------------------ control tick
     def _surroundings(self, t: float, pos: FloatArray, tilt_rad: float) -> Surroundings:
-        """The world model's views for the landing logic (under the lock)."""
+        """The world model's views for the landing logic (under the lock); the coverage radius is
+        evaluated only if the landing logic or a display asks for it."""
         assert self.world is not None and self.landing is not None
         w, s = self.world, self.settings
-        coverage = 0.0
         fresh = w.last_down_stamp_s is not None and t - w.last_down_stamp_s <= DOWN_FRAME_FRESH_S
         off_target = float(np.linalg.norm(pos[:2] - self.landing.target_m[:2]))
-        if w.down_intrinsics is not None and fresh and off_target < HOLD_LOST_M:
+        intrinsics, height = w.down_intrinsics, float(pos[2] - self.landing.target_m[2])
+
+        def coverage() -> float:
+            if intrinsics is None or not fresh or off_target >= HOLD_LOST_M:
+                return 0.0
             # about the landing point: the radius around the vehicle less the vehicle's offset from it
-            radius = detection_radius_m(w.down_intrinsics, float(pos[2] - self.landing.target_m[2]), tilt_rad,
-                                        stride=s.down_blob_stride, min_points=s.down_blob_min_points,
-                                        torso=self._torso)
-            coverage = max(0.0, radius - off_target)
+            radius = detection_radius_m(intrinsics, height, tilt_rad, stride=s.down_blob_stride,
+                                        min_points=s.down_blob_min_points, torso=self._torso)
+            return max(0.0, radius - off_target)
+
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration))
 
     def tick(self, state: VehicleState) -> TickOutput:

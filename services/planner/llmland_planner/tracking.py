@@ -298,9 +298,10 @@ class ObstacleTracker:
 
     def mark_moved(self, is_moving: Callable[[TrackedObstacle], bool]) -> None:
         """Set ``has_moved`` on every live track that ``is_moving`` says moves now (sticky)."""
-        self.revision += 1
         for t in self._tracks:
-            t.has_moved = t.has_moved or is_moving(t)
+            if not t.has_moved and is_moving(t):
+                t.has_moved = True
+                self.revision += 1
 
     def tracks(self, at_s: float | None = None) -> list[TrackedObstacle]:
         """Copies of the live tracks; with ``at_s`` (s), centroid and bounds are moved to that time."""

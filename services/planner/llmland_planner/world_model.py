@@ -99,6 +99,10 @@ class WorldModel:
         #: as they were (one tick asks three times: keep-out, possible people, the landing disc)
         self._views_cache: tuple[tuple[float, int, int], list[TrackView]] | None = None
         self._specs_revision = 0
+        #: keep-out boxes of still tracks, by track and view, while the tracks and specs stay as
+        #: they were (a still track's boxes do not depend on the time)
+        self._still_regions: dict[tuple[str, float, float, str, bool, bool, bool], list[UnsafeRegion]] = {}
+        self._still_regions_rev: tuple[int, int] = (-1, -1)
 
     @property
     def semantic(self) -> bool:
@@ -263,20 +267,35 @@ class WorldModel:
         near the pad are the hard limit's, which has its own bound for the unseen.
         """
         s = self.settings
+        rev = (self.tracker.revision, self._specs_revision)
+        if rev != self._still_regions_rev:
+            self._still_regions, self._still_regions_rev = {}, rev
         out: list[UnsafeRegion] = []
         for v in self.views(t_s):
             tr = v.track
             if tr.has_moved and t_s - tr.last_seen_s > s.moved_unseen_keepout_s:
                 continue  # somewhere else by now; where the path goes, the forward camera looks
-            dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
-            centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
-            top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
-            buffer_m = self._yielding_buffer(v, centre, half, v.buffer_m, top)
-            out += from_obstacle(centre, half, height, buffer_m, v.z_min,
-                                 velocity_xy=tr.velocity_mps[:2] if v.moving else None,
-                                 horizon_s=s.sweep_horizon_s if v.moving else 0.0,
-                                 obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
+            if v.moving:
+                out += self._keepout(v, t_s)
+                continue
+            key = (tr.track_id, v.buffer_m, v.z_min, v.label, v.dynamic, v.possible_person, v.human)
+            boxes = self._still_regions.get(key)
+            if boxes is None:
+                boxes = self._still_regions[key] = self._keepout(v, t_s)
+            out += boxes
         return out
+
+    def _keepout(self, v: TrackView, t_s: float) -> list[UnsafeRegion]:
+        """One track's keep-out boxes at ``t_s`` (a still track's do not depend on ``t_s``)."""
+        s, tr = self.settings, v.track
+        dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
+        centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
+        top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
+        buffer_m = self._yielding_buffer(v, centre, half, v.buffer_m, top)
+        return from_obstacle(centre, half, height, buffer_m, v.z_min,
+                             velocity_xy=tr.velocity_mps[:2] if v.moving else None,
+                             horizon_s=s.sweep_horizon_s if v.moving else 0.0,
+                             obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
 
     def landing_regions(self, t_s: float, duration_s: float) -> list[UnsafeRegion]:
         """What the landing disc must stay clear of for a descent of ``duration_s`` from ``t_s``.

@@ -83,3 +83,23 @@ def test_a_standing_person_needs_less_room_than_a_walking_one() -> None:
     stale = logic.gate(S.cruise_altitude_m, 0.0, _around([_person(5.3, age=0.5)])).clearance.margin_m
     assert standing > walking and standing > stale
     assert logic.gate(S.cruise_altitude_m, 0.0, around).open
+
+
+def test_coverage_is_computed_only_for_a_gate_not_yet_committed() -> None:
+    """The coverage radius costs a table entry per new height and tilt: a descent under way (whose
+    untracked bound was shown at the commit) must not ask for it, a hold asks once per tick."""
+    calls: list[int] = []
+
+    def coverage() -> float:
+        calls.append(1)
+        return 7.0
+
+    logic = LandingLogic(TARGET, S)
+    logic.phase = Phase.DESCEND
+    logic.update(np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -2.5]), 0.0,
+                 Surroundings([], [], coverage, lambda _d: []))
+    assert calls == []
+    around = Surroundings([], [], coverage, lambda _d: [])
+    logic.gate(S.cruise_altitude_m, 0.0, around)
+    logic.gate(S.cruise_altitude_m, 0.0, around)
+    assert calls == [1] and around.coverage_m == 7.0

@@ -290,3 +290,20 @@ def test_views_at_one_time_follow_new_tracks_and_specs():
     wm.on_spec(_person_spec(0.0, 0.0))
     wm.release_specs(0.0)
     assert {v.buffer_m for v in wm.views(0.0)} == {3.0, CONSERVATIVE_BUFFER_M}
+
+
+def test_still_keepout_boxes_are_reused_until_tracks_or_specs_change():
+    """A still track's boxes do not depend on the time, so ticks between frames reuse them; a
+    moving one's are swept from where it is predicted now."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    first = wm.regions(0.0)
+    assert wm.regions(0.1)[0] is first[0]  # same boxes, a tick later
+    wm.on_spec(_person_spec(0.0, 0.0))
+    wm.release_specs(0.1)
+    assert 3.0 < (wm.regions(0.1)[0].hi[0] - wm.regions(0.1)[0].lo[0]) / 2 < 3.5  # the spec shows at once
+    for k in range(1, 6):  # walks along +x at 1.5 m/s
+        wm.tracker.update([_blob(5.0 + 0.3 * k, 0.0)], 0.2 * k)
+        wm.ingest(0.2 * k)
+    a, b = wm.regions(1.0), wm.regions(1.1)
+    assert b[0].lo[0] > a[0].lo[0]  # predicted on from its last sighting
