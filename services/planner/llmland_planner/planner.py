@@ -235,10 +235,11 @@ class Planner:
 
     def _steer_yaw(self, phase: Phase, t: float, pos: FloatArray, goal: FloatArray, around: Surroundings,
                    ahead: FloatArray | None) -> None:
-        """Where the forward camera looks: along the active path while approaching (at the goal
-        before the first plan); while holding, at the nearest possible person (their class stays
-        fresh), else turning slowly to see all around. ``ahead (3,)``: the active path's point
-        ahead (:meth:`.Replanner.look_ahead_m`), None before the first plan."""
+        """Where the forward camera looks: along the active path while approaching (with no path, at
+        the nearest thing of unknown class, else at the goal); while holding, at the nearest
+        possible person (their class stays fresh), else turning slowly to see all around.
+        ``ahead (3,)``: the active path's point ahead (:meth:`.Replanner.look_ahead_m`), None
+        without a plan."""
         s = self.settings
         dt = max(0.0, t - self._last_t)
         self._last_t = t
@@ -246,7 +247,11 @@ class Planner:
             return
         if phase == Phase.APPROACH:
             # Along the path, not at the goal: a detour can lead away from the goal (even
-            # backwards), and the vehicle must see what it flies into (look_ahead.py).
+            # backwards), and the vehicle must see what it flies into (look_ahead.py). With no
+            # path, at the nearest thing of unknown class: its careful keep-out may be what
+            # blocks the way, and only the forward camera's frames are captioned.
+            if ahead is None:
+                ahead = self._nearest_unresolved(t, pos)
             d = (goal if ahead is None else ahead)[:2] - pos[:2]
             if float(np.linalg.norm(d)) > YAW_ALONG_PATH_MIN_M:
                 self._turn_toward(math.atan2(float(d[1]), float(d[0])), s.hold_yaw_rate_rps * dt)
@@ -257,6 +262,14 @@ class Planner:
             self._turn_toward(math.atan2(float(c[1] - pos[1]), float(c[0] - pos[0])), s.hold_yaw_rate_rps * dt)
         else:
             self._yaw_ref += s.scan_yaw_rate_rps * dt
+
+    def _nearest_unresolved(self, t: float, pos: FloatArray) -> FloatArray | None:
+        """The nearest footprint centre (2,) of unknown class within ``YAW_ATTENTION_M``, farther than
+        ``YAW_ALONG_PATH_MIN_M`` (a bearing to something right below is noise); None if there is none."""
+        assert self.world is not None
+        dists = [(float(np.linalg.norm(c - pos[:2])), c) for c in self.world.unresolved(t)]
+        near = [(d, c) for d, c in dists if YAW_ALONG_PATH_MIN_M < d <= YAW_ATTENTION_M]
+        return min(near, key=lambda dc: dc[0])[1] if near else None
 
     def _turn_toward(self, heading: float, max_step: float) -> None:
         err = math.remainder(heading - self._yaw_ref, 2.0 * math.pi)

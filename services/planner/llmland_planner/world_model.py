@@ -319,6 +319,19 @@ class WorldModel:
                                      label=v.label, z_ground_m=z0)
         return out
 
+    def unresolved(self, t_s: float) -> list[FloatArray]:
+        """Footprint centres (2,) of the tracks whose class is unknown at ``t_s``: no spec yet, a
+        stale one, or the reasoner's fallback (semantic methods; the geometric ones read no specs).
+
+        They stand in the most careful class, whose keep-out is wide and high enough to block the
+        way; the forward camera turns to them when no path is found (:meth:`.Planner._steer_yaw`),
+        since a thing only the downward camera has seen is never captioned otherwise.
+        """
+        if not self.semantic:
+            return []
+        return [0.5 * (v.track.lo_m[:2] + v.track.hi_m[:2]) for v in self.views(t_s)
+                if self.spec_for(v.track, t_s).source == "fallback"]
+
     def people(self, t_s: float) -> list[PersonHypothesis]:
         """Possible people observed within ``recent_observation_s`` (the hard limit's input).
 

@@ -180,3 +180,35 @@ def test_a_held_reference_waits_at_the_nearest_path_point():
     assert np.allclose(ref_p, path.p[10]) and np.allclose(ref_v, 0.0)
     ref_p, ref_v, _ = pl.paths.reference(pos)
     assert ref_p[-1][0] < path.p[10][0] - 1.0 and np.linalg.norm(ref_v[1]) > 0.5  # flying on
+
+
+@pytest.mark.parametrize("method", ["llm-land", "baseline"])
+def test_with_no_path_the_camera_turns_to_the_nearest_thing_of_unknown_class(method):
+    """Urban seed 21 (llm-land): a tree beside the start, seen only by the downward camera, kept the
+    most careful class (5 m, overfly above 5 m) with the start inside its keep-out; every search
+    failed and the forward camera faced the goal, so the tree was never captioned and the drone
+    hovered there for 90 s. With no path it now looks at the nearest unknown thing; once that
+    has a spec (or for a method that reads none) it faces the goal again."""
+    from llmland_planner.landing import Phase, Surroundings
+    from llmland_schemas import ObjectSpec, SafetySpec, SafetySpecMessage
+    from llmland_schemas.depth import Blob
+
+    pl = Planner()
+    pl.start(MissionGoal(episode_id="e", method=method, start_m=(0, 0, 3), target_m=(10, 0, 0)))
+    lo, hi = np.array([-0.2, 4.8, 0.0]), np.array([0.2, 5.2, 4.0])  # a trunk 5 m to the left (+y)
+    blob = Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo,
+                n_points=100, bbox_px=(0, 0, 10, 10), footprint_radius_m=0.3)
+    pl.world.tracker.update([blob], 0.0, source="down")
+    around = Surroundings([], [], 0.0, lambda _d: [])
+    pos, goal = np.array([0.0, 0.0, 3.0]), np.array([10.0, 0.0, 3.0])
+    for k in range(1, 40):  # 2 s: enough to turn π/2 at the hold yaw rate
+        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around, None)
+    expected = math.pi / 2 if method == "llm-land" else 0.0
+    assert abs(math.remainder(pl._yaw_ref - expected, 2 * math.pi)) < 0.05
+    tree = SafetySpec(is_dynamic=False, is_human=False, z_min=0.0, buffer_m=1.0, label="tree", source="rag")
+    pl.world.on_spec(SafetySpecMessage(stamp=2.0, scene=tree, latency_ms=0.0, objects=[
+        ObjectSpec(obj_id="b0", centroid_m=tuple(blob.centroid_m), size_m=tuple(blob.size_m), spec=tree)]))
+    pl.world.release_specs(2.0)
+    for k in range(40, 80):
+        pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around, None)
+    assert abs(math.remainder(pl._yaw_ref, 2 * math.pi)) < 0.05  # known now: back to the goal
