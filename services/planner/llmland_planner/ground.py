@@ -55,9 +55,10 @@ class GroundMap:
             self._staged[(stamp_s, source)] = np.asarray(points_world, dtype=float).reshape(-1, 3)
 
     def commit(self, upto_s: float) -> None:
-        """Fold in every staged frame stamped at or before ``upto_s``, oldest first."""
+        """Fold in every staged frame stamped at or before ``upto_s`` (s, exactly: the caller allows
+        for rounding), oldest first."""
         with self._lock:
-            due = sorted(k for k in self._staged if k[0] <= upto_s + 1e-9)
+            due = sorted(k for k in self._staged if k[0] <= upto_s)
             frames = [self._staged.pop(k) for k in due]
         for pts in frames:
             self.add_points(pts)

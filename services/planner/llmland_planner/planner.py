@@ -144,7 +144,7 @@ class Planner:
         pos, vel = np.asarray(state.position_m), np.asarray(state.velocity_mps)
         euler = np.asarray(state.euler_rpy_rad)
         with self._lock:
-            self.world.ingest(t)
+            self.world.ingest(t, lockstep=self._lockstep)
             self.world.release_specs(t, state.specs_released_upto_s, lockstep=self._lockstep)
             around = self._surroundings(t, pos, float(np.hypot(euler[0], euler[1])))
         phase, goal = self.landing.update(pos, vel, t, around)

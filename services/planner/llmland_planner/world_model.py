@@ -57,6 +57,8 @@ log = logging.getLogger(__name__)
 GROUND_POINT_STRIDE = 2
 #: points nearer than this (m) in front of a camera are outside its view
 FRUSTUM_NEAR_M = 0.1
+#: frame stamps closer than this (s) are the same instant (sums of physics steps drift)
+FRAME_SAME_INSTANT_S = 1e-9
 
 
 def frustum_fn(frame: CameraFrame, max_range_m: float) -> VisibleFn:
@@ -137,9 +139,16 @@ class WorldModel:
         view = (blobs, frustum_fn(frame, s.max_range_m))
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
 
-    def ingest(self, t_s: float) -> None:
-        """Track every frame up to ``t_s``, oldest instant first (downward view, then forward)."""
-        for stamp in sorted(st for st in self._views if st <= t_s + 1e-9):
+    def ingest(self, t_s: float, *, lockstep: bool = False) -> None:
+        """Track every frame up to ``t_s``, oldest instant first (downward view, then forward).
+
+        ``lockstep``: only frames stamped *before* ``t_s``. The sim renders a tick's frames after
+        publishing its state and names them in the next state (``llmland_sim.main``), so a frame
+        stamped ``t_s`` may or may not have arrived when this tick runs; taking it would make
+        what the planner knows depend on bus timing. The next tick takes it, every time.
+        """
+        upto = t_s - FRAME_SAME_INSTANT_S if lockstep else t_s + FRAME_SAME_INSTANT_S
+        for stamp in sorted(st for st in self._views if st <= upto):
             views = self._views.pop(stamp)
             for camera in sorted(views):  # "down" before "forward": the top view fixes positions
                 blobs, visible = views[camera]
@@ -147,7 +156,7 @@ class WorldModel:
             self.version += 1
         self.tracker.mark_moved(lambda tr: is_moving(tr, self.settings))
         if self.ground is not None:
-            self.ground.commit(t_s)
+            self.ground.commit(upto)
 
     def on_spec(self, msg: SafetySpecMessage) -> None:
         """Queue the per-object specs for release."""

@@ -307,3 +307,27 @@ def test_still_keepout_boxes_are_reused_until_tracks_or_specs_change():
         wm.ingest(0.2 * k)
     a, b = wm.regions(1.0), wm.regions(1.1)
     assert b[0].lo[0] > a[0].lo[0]  # predicted on from its last sighting
+
+
+def test_lockstep_takes_a_frame_at_the_tick_after_its_stamp():
+    """The sim renders a tick's frames after publishing its state and names them in the next
+    one: whether a frame stamped t has arrived when tick t runs depends on bus timing, so in
+    lockstep tick t never takes it and tick t + 1 always does (realtime takes what is in)."""
+    from llmland_schemas import CameraFrameHeader, CameraIntrinsics
+    from llmland_schemas.frames import CameraFrame
+
+    def frame(stamp: float, seq: int) -> CameraFrame:
+        header = CameraFrameHeader(stamp=stamp, seq=seq, width=8, height=6, camera="down",
+                                   intrinsics=CameraIntrinsics(fx=4, fy=4, cx=4, cy=3, width=8, height=6),
+                                   T_world_camera=list(np.eye(4).reshape(-1)), depth_encoding="32FC1")
+        depth = np.full((6, 8), np.inf, np.float32)
+        return CameraFrame(header=header, rgb=np.zeros((6, 8, 3), np.uint8), depth_m=depth)
+
+    for lockstep in (True, False):
+        wm = WorldModel(PlannerSettings(), "llm-land", np.zeros(3))
+        wm.on_frame(frame(0.2, 10))
+        before = wm.tracker.revision
+        wm.ingest(0.2, lockstep=lockstep)
+        assert (wm.tracker.revision == before) is lockstep
+        wm.ingest(0.22, lockstep=lockstep)
+        assert wm.tracker.revision == before + 1
