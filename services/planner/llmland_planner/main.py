@@ -35,6 +35,13 @@ log = logging.getLogger("llmland.planner")
 #: longest wait (s, wall) for the frame or spec a lockstep state says has been published; only
 #: a lost message should run into it (a shorter limit made seeded runs diverge under heavy load)
 INPUT_WAIT_S = 10.0
+#: longest wait (s, wall) for the mission of a state from an episode not started here yet: the
+#: sim publishes the resolved mission and then its first state on another key, and the two
+#: callbacks race (a state dropped then cost the sim a 10 s lockstep timeout and its first tick)
+MISSION_WAIT_S = 2.0
+#: frames of an episode whose mission has not arrived yet are kept (at most this many) and
+#: handed over when it does, for the same race
+EARLY_FRAMES_MAX = 8
 
 
 class PlannerService:
@@ -56,6 +63,8 @@ class PlannerService:
         self._frame_seq = {"forward": -1, "down": -1}  # newest frame per camera handed to the planner
         self._spec_stamp = -1.0  # newest spec stamp of this episode received
         self._states: queue.Queue[VehicleState | None] = queue.Queue()
+        self._waited_for: str | None = None  # the last unknown episode a state made us wait for
+        self._early_frames: list[CameraFrame] = []  # of an episode whose mission is not in yet
         self.late_inputs = 0
         d = settings.drone_id
         self.cmd_key, self.plan_key = key(d, Topic.COMMAND), key(d, Topic.PLAN)
@@ -76,14 +85,25 @@ class PlannerService:
             with self._inputs:
                 self.episode_id = m.episode_id
                 self._frame_seq, self._spec_stamp = {"forward": -1, "down": -1}, -1.0
+                early, self._early_frames = [f for f in self._early_frames if f.header.episode_id == m.episode_id], []
+                self._inputs.notify_all()
+        for frame in early:
+            self._take_frame(frame)
 
     def _on_frame(self, _k: str, frame: CameraFrame) -> None:
-        if frame.header.episode_id == self.episode_id:
-            self.planner.on_frame(frame)
-            with self._inputs:
-                cam = frame.header.camera
-                self._frame_seq[cam] = max(self._frame_seq[cam], frame.header.seq)
-                self._inputs.notify_all()
+        with self._inputs:
+            if frame.header.episode_id != self.episode_id:
+                if frame.header.episode_id:  # maybe its mission is on the way: keep the newest few
+                    self._early_frames = (self._early_frames + [frame])[-EARLY_FRAMES_MAX:]
+                return
+        self._take_frame(frame)
+
+    def _take_frame(self, frame: CameraFrame) -> None:
+        self.planner.on_frame(frame)
+        with self._inputs:
+            cam = frame.header.camera
+            self._frame_seq[cam] = max(self._frame_seq[cam], frame.header.seq)
+            self._inputs.notify_all()
 
     def _on_spec(self, _k: str, msg: SafetySpecMessage) -> None:
         if msg.episode_id in ("", self.episode_id):
@@ -113,8 +133,17 @@ class PlannerService:
             except Exception:  # a planner bug must not stop the service: the sim's failsafe holds
                 log.exception("planner tick failed")
 
+    def _known_episode(self, st: VehicleState) -> bool:
+        """Whether ``st`` belongs to the episode started here, waiting (once per unknown episode, at
+        most :data:`MISSION_WAIT_S`) for its mission to arrive first."""
+        with self._inputs:
+            if st.episode_id != self.episode_id and st.episode_id != self._waited_for:
+                self._waited_for = st.episode_id
+                self._inputs.wait_for(lambda: self.episode_id == st.episode_id, timeout=MISSION_WAIT_S)
+            return st.episode_id == self.episode_id
+
     def _handle_state(self, st: VehicleState) -> None:
-        if st.episode_id != self.episode_id:
+        if not self._known_episode(st):
             return
         self._wait_inputs(st)
         with self._tick_lock:

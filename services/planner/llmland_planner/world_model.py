@@ -89,7 +89,9 @@ class WorldModel:
         self.tracker = ObstacleTracker(gate_m=s.track_gate_m, forget_after_s=s.track_forget_s,
                                        predict_cap_s=s.predict_cap_s, gate_growth_mps=s.human_max_speed_mps)
         self.pending: list[PendingSpec] = []
-        self._views: dict[float, dict[str, tuple[list[Blob], VisibleFn]]] = {}
+        #: per frame stamp and camera: its blobs, its frustum test and what the frame says of the
+        #: camera (taken in at :meth:`ingest`, so a tick never sees a frame it has not ingested)
+        self._views: dict[float, dict[str, tuple[list[Blob], VisibleFn, CameraFrame]]] = {}
         self.down_intrinsics: CameraIntrinsics | None = None  # known once a downward frame arrived
         #: half the forward camera's azimuth range (rad, :func:`~.look_ahead.view_half_azimuth_rad`)
         self.forward_half_azimuth_rad: float | None = None
@@ -131,12 +133,7 @@ class WorldModel:
         blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=stride,
                            min_points=min_points, max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m,
                            points_world=pts, ground_height_fn=self.ground.height if self.ground is not None else None)
-        if down:
-            self.down_intrinsics = frame.header.intrinsics
-            self.last_down_stamp_s = frame.header.stamp
-        else:
-            self.forward_half_azimuth_rad = view_half_azimuth_rad(frame.header.intrinsics, frame.T_world_camera)
-        view = (blobs, frustum_fn(frame, s.max_range_m))
+        view = (blobs, frustum_fn(frame, s.max_range_m), frame)
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
 
     def ingest(self, t_s: float, *, lockstep: bool = False) -> None:
@@ -151,12 +148,22 @@ class WorldModel:
         for stamp in sorted(st for st in self._views if st <= upto):
             views = self._views.pop(stamp)
             for camera in sorted(views):  # "down" before "forward": the top view fixes positions
-                blobs, visible = views[camera]
+                blobs, visible, frame = views[camera]
                 self.tracker.update(blobs, stamp, visible_fn=visible, source=camera)
+                self._take_camera(frame)
             self.version += 1
         self.tracker.mark_moved(lambda tr: is_moving(tr, self.settings))
         if self.ground is not None:
             self.ground.commit(upto)
+
+    def _take_camera(self, frame: CameraFrame) -> None:
+        """What an ingested frame tells of its camera: the downward one's intrinsics and freshness
+        (the coverage radius), the forward one's azimuth range (look before flying)."""
+        if frame.header.camera == "down":
+            self.down_intrinsics = frame.header.intrinsics
+            self.last_down_stamp_s = frame.header.stamp
+        else:
+            self.forward_half_azimuth_rad = view_half_azimuth_rad(frame.header.intrinsics, frame.T_world_camera)
 
     def on_spec(self, msg: SafetySpecMessage) -> None:
         """Queue the per-object specs for release."""
