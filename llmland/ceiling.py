@@ -67,7 +67,7 @@ def seed_ceiling(world: str, seed: int, timeout_s: float, settings: PlannerSetti
                 hyps.append(PersonHypothesis(obj_id, np.asarray(pos, dtype=float)[:2], PERSON_BODY_RADIUS_M,
                                              float(np.linalg.norm(actor.velocity()[:2])), 0.0, "person"))
                 closest = min(closest, float(np.linalg.norm(np.asarray(pos, dtype=float)[:2] - target)))
-            gate = commit_clearance(target, hyps, duration, bounds, coverage_m=math.inf, frame_period_s=0.0,
+            gate = commit_clearance(target, hyps, duration, bounds, coverage_m=math.inf, unseen_s=0.0,
                                     xy_margin_m=s.landing_xy_margin_m)
             if gate.safe:
                 n_open += 1

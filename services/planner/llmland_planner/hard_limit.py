@@ -12,7 +12,8 @@ tracked or not — stays farther than 1 m from the landing point until touchdown
 - anyone not tracked is, by the coverage assumption, outside the downward camera's coverage
   radius ``R_cov`` (everyone inside it is detected every frame: :mod:`.coverage` bounds the
   detector's point count on a person from below and takes ``R_cov`` where that bound is at least
-  the detector's minimum), so can close in by at most ``R(T + frame period, v_max)``;
+  the detector's minimum) at the newest downward frame, so can close in by at most
+  ``R(T + its age, v_max)`` (the age at least one frame period);
 - the landing point is the vehicle's horizontal position at touchdown, within ``xy_margin_m``.
 
 Assumptions (what the guarantee rests on): people's speed ≤ ``max_speed_mps`` (ISO 13855:2010
@@ -97,14 +98,16 @@ class Clearance:
 
 
 def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], duration_s: float,
-                     bounds: HumanMotionBounds, *, coverage_m: float, frame_period_s: float,
+                     bounds: HumanMotionBounds, *, coverage_m: float, unseen_s: float,
                      xy_margin_m: float, hard_limit_m: float = PERSON_HARD_LIMIT_M) -> Clearance:
     """Margin to the hard limit if the vehicle is at ``landing_xy`` until ``duration_s`` from now.
 
     Tracked people: ``|landing − c| − r − R(age + T, speed)``; untracked people:
-    ``R_cov − R(T + frame period)`` (unknown speed). Each minus ``xy_margin_m`` and the limit.
+    ``R_cov − R(T + unseen_s)`` (unknown speed), ``unseen_s`` being how long ago the coverage was
+    seen (the newest downward frame's age, at least one frame period). Each minus ``xy_margin_m``
+    and the limit.
     """
-    untracked = coverage_m - bounds.reach_m(duration_s + frame_period_s) - xy_margin_m - hard_limit_m
+    untracked = coverage_m - bounds.reach_m(duration_s + unseen_s) - xy_margin_m - hard_limit_m
     worst = Clearance(untracked, "")
     p = np.asarray(landing_xy, dtype=float)[:2]
     for person in people:

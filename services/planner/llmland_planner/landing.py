@@ -63,6 +63,9 @@ class Surroundings:
     coverage: float | Callable[[], float]
     #: regions the landing disc must stay clear of during a descent of the given duration (s)
     landing_regions: Callable[[float], list[UnsafeRegion]]
+    #: age (s) of the newest downward frame the coverage stands on: untracked people were outside
+    #: the coverage then, and have been walking since
+    coverage_age_s: float = 0.0
 
     @cached_property
     def coverage_m(self) -> float:
@@ -150,8 +153,11 @@ class LandingLogic:
         s = self.settings
         duration = self.descent_duration_s(height_m, sink_mps)
         coverage = around.coverage_m if s.require_coverage and not committed else float("inf")
+        # untracked people: outside the coverage at the newest downward frame, at least one frame
+        # period ago (a frame may land between two checks), walking since
+        unseen_s = max(s.coverage_frame_period_s, around.coverage_age_s)
         clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
-                                     frame_period_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m)
+                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m)
         clear = disc_clear(self.target_m[:2], s.landing_disc_radius_m, around.landing_regions(duration))
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate

@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 import queue
 import threading
+from collections import deque
 
 from llmland_schemas import (
     ControlCommand,
@@ -64,6 +65,7 @@ class PlannerService:
         self._spec_stamp = -1.0  # newest spec stamp of this episode received
         self._states: queue.Queue[VehicleState | None] = queue.Queue()
         self._waited_for: str | None = None  # the last unknown episode a state made us wait for
+        self._started: deque[str] = deque(maxlen=16)  # episodes started here (never waited for again)
         self._early_frames: list[CameraFrame] = []  # of an episode whose mission is not in yet
         self.late_inputs = 0
         d = settings.drone_id
@@ -84,6 +86,7 @@ class PlannerService:
             self.planner.start(m)
             with self._inputs:
                 self.episode_id = m.episode_id
+                self._started.append(m.episode_id)
                 self._frame_seq, self._spec_stamp = {"forward": -1, "down": -1}, -1.0
                 early, self._early_frames = [f for f in self._early_frames if f.header.episode_id == m.episode_id], []
                 self._inputs.notify_all()
@@ -99,8 +102,10 @@ class PlannerService:
         self._take_frame(frame)
 
     def _take_frame(self, frame: CameraFrame) -> None:
-        self.planner.on_frame(frame)
+        self.planner.on_frame(frame)  # drops it if another episode has started meanwhile
         with self._inputs:
+            if frame.header.episode_id != self.episode_id:
+                return
             cam = frame.header.camera
             self._frame_seq[cam] = max(self._frame_seq[cam], frame.header.seq)
             self._inputs.notify_all()
@@ -135,9 +140,11 @@ class PlannerService:
 
     def _known_episode(self, st: VehicleState) -> bool:
         """Whether ``st`` belongs to the episode started here, waiting (once per unknown episode, at
-        most :data:`MISSION_WAIT_S`) for its mission to arrive first."""
+        most :data:`MISSION_WAIT_S`) for its mission to arrive first; a state of an episode that
+        was started here and has ended is dropped at once."""
         with self._inputs:
-            if st.episode_id != self.episode_id and st.episode_id != self._waited_for:
+            if (st.episode_id != self.episode_id and st.episode_id != self._waited_for
+                    and st.episode_id not in self._started):
                 self._waited_for = st.episode_id
                 self._inputs.wait_for(lambda: self.episode_id == st.episode_id, timeout=MISSION_WAIT_S)
             return st.episode_id == self.episode_id

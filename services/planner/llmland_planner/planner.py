@@ -108,8 +108,10 @@ class Planner:
         log.info("planner: episode %s method=%s target=%s", mission.episode_id, mission.method, mission.target_m)
 
     def on_frame(self, frame: CameraFrame) -> None:
+        """A camera frame of the running episode (one of another episode is dropped)."""
         with self._lock:
-            if self.world is not None:
+            episode = "" if self.mission is None else self.mission.episode_id
+            if self.world is not None and frame.header.episode_id in ("", episode):
                 self.world.on_frame(frame)
 
     def on_spec(self, msg: SafetySpecMessage) -> None:
@@ -119,8 +121,9 @@ class Planner:
 
     # ------------------------------------------------------------------ control tick
     def _surroundings(self, t: float, pos: FloatArray, tilt_rad: float) -> Surroundings:
-        """The world model's views for the landing logic (under the lock); the coverage radius is
-        evaluated only if the landing logic or a display asks for it."""
+        """The world model's views for the landing logic (called under the lock; the two functions
+        it hands over run after it). The coverage radius is evaluated only if the landing logic or
+        a display asks for it."""
         assert self.world is not None and self.landing is not None
         w, s = self.world, self.settings
         fresh = w.last_down_stamp_s is not None and t - w.last_down_stamp_s <= DOWN_FRAME_FRESH_S
@@ -135,7 +138,9 @@ class Planner:
                                         min_points=s.down_blob_min_points, torso=self._torso)
             return max(0.0, radius - off_target)
 
-        return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration))
+        age = 0.0 if w.last_down_stamp_s is None else max(0.0, t - w.last_down_stamp_s)
+        return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration),
+                            coverage_age_s=age)
 
     def tick(self, state: VehicleState) -> TickOutput:
         t_tick = time.perf_counter()

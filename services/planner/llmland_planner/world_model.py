@@ -142,7 +142,11 @@ class WorldModel:
         ``lockstep``: only frames stamped *before* ``t_s``. The sim renders a tick's frames after
         publishing its state and names them in the next state (``llmland_sim.main``), so a frame
         stamped ``t_s`` may or may not have arrived when this tick runs; taking it would make
-        what the planner knows depend on bus timing. The next tick takes it, every time.
+        what the planner knows depend on bus timing. The next tick takes it, every time. (Blobs
+        are found on arrival against the ground committed so far; with cameras rendering on
+        consecutive ticks, faster than half the control rate, a frame's blobs could then depend
+        on whether the previous tick's commit came first. The sim's cameras render together at
+        5 Hz, a frame period after the last commit.)
         """
         upto = t_s - FRAME_SAME_INSTANT_S if lockstep else t_s + FRAME_SAME_INSTANT_S
         for stamp in sorted(st for st in self._views if st <= upto):
@@ -182,7 +186,7 @@ class WorldModel:
         """
         if lockstep:
             def is_due(s: PendingSpec) -> bool:
-                return released_upto_s is not None and s.stamp_s <= released_upto_s + 1e-9
+                return released_upto_s is not None and s.stamp_s <= released_upto_s + FRAME_SAME_INSTANT_S
         else:
             def is_due(s: PendingSpec) -> bool:
                 return s.apply_at_s <= t_s
@@ -222,8 +226,8 @@ class WorldModel:
         return view_track(tr, t_s, self.method, self.settings)
 
     def views(self, t_s: float) -> list[TrackView]:
-        """Every live track as the method sees it at ``t_s`` (copies; computed once per time and
-        state of the tracks and specs)."""
+        """Every live track as the method sees it at ``t_s`` (track copies; computed once per time
+        and state of the tracks and specs, so the list is shared: read it, do not change it)."""
         key = (t_s, self.tracker.revision, self._specs_revision)
         cached = self._views_cache
         if cached is not None and cached[0] == key:

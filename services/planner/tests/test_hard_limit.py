@@ -40,8 +40,8 @@ def test_reach_is_monotone_and_capped_by_the_walking_speed() -> None:
 
 
 def test_untracked_people_bound_needs_enough_coverage() -> None:
-    far = commit_clearance(TARGET[:2], [], 2.0, BOUNDS, coverage_m=7.0, frame_period_s=0.2, xy_margin_m=0.25)
-    near = commit_clearance(TARGET[:2], [], 2.0, BOUNDS, coverage_m=4.0, frame_period_s=0.2, xy_margin_m=0.25)
+    far = commit_clearance(TARGET[:2], [], 2.0, BOUNDS, coverage_m=7.0, unseen_s=0.2, xy_margin_m=0.25)
+    near = commit_clearance(TARGET[:2], [], 2.0, BOUNDS, coverage_m=4.0, unseen_s=0.2, xy_margin_m=0.25)
     assert far.safe and not near.safe and near.track_id == ""
 
 
@@ -113,3 +113,19 @@ def test_gate_duration_covers_the_descent_and_the_touchdown_dwell() -> None:
     assert gate.open and gate.duration_s == pytest.approx(
         profile.time_to_touchdown_s(HOVER_M, 0.0, SETTINGS.touchdown_height_m)
         + SETTINGS.descent_time_margin_s + SETTINGS.touchdown_dwell_s)
+
+
+def test_untracked_people_walk_for_the_coverage_frames_age() -> None:
+    """Someone outside the coverage at the newest downward frame has been walking since: with
+    frames 0.45 s old (a stalled camera; 0.5 s still counts as fresh) the gate must not open on
+    a radius that one frame period (0.2 s) would have allowed. A fixed period did."""
+    logic = LandingLogic(TARGET, SETTINGS)
+    fresh = logic.gate(HOVER_M, 0.0, Surroundings([], [], 100.0, lambda _d: []))
+    need = (BOUNDS.reach_m(fresh.duration_s + SETTINGS.coverage_frame_period_s)
+            + SETTINGS.landing_xy_margin_m + PERSON_HARD_LIMIT_M)
+    radius = need + 0.1
+    assert logic.gate(HOVER_M, 0.0, Surroundings([], [], radius, lambda _d: [], coverage_age_s=0.1)).open
+    stale = logic.gate(HOVER_M, 0.0, Surroundings([], [], radius, lambda _d: [], coverage_age_s=0.45))
+    assert not stale.open and stale.clearance.track_id == ""
+    assert stale.clearance.margin_m == pytest.approx(radius - BOUNDS.reach_m(stale.duration_s + 0.45)
+                                                     - SETTINGS.landing_xy_margin_m - PERSON_HARD_LIMIT_M)

@@ -76,3 +76,25 @@ def test_a_state_and_a_frame_before_their_mission_are_not_lost() -> None:
         assert cmd.state_seq == 1 and service.late_inputs == 0  # and the early frame was in
     finally:
         service.close()
+
+
+def test_a_leftover_state_of_an_ended_episode_costs_no_wait() -> None:
+    """After episode e1, a state of e1 still queued must be dropped at once (not waited on as if
+    its mission were still to come) and a frame of e1 must not enter e2's world model."""
+    bus = _Bus()
+    service = PlannerService(PlannerSettings(), bus)  # type: ignore[arg-type]
+    try:
+        d = "d0"
+        for ep in ("e1", "e2"):
+            bus.subs[key(d, Topic.MISSION)]("", MissionGoal(episode_id=ep, method="baseline", clock="lockstep",
+                                                            start_m=(0.0, 0.0, 3.0), target_m=(10.0, 0.0, 0.0)))
+        bus.subs[key(d, Topic.CAMERA)]("", _frame(5, "e1"))
+        assert service._frame_seq["forward"] == -1 and not service.planner.world._views  # type: ignore[union-attr]
+        t0 = time.monotonic()
+        assert not service._known_episode(VehicleState(
+            stamp=1.0, seq=50, position_m=(0.0, 0.0, 3.0), velocity_mps=(0.0, 0.0, 0.0),
+            quat_xyzw=(0.0, 0.0, 0.0, 1.0), euler_rpy_rad=(0.0, 0.0, 0.0), body_rates_rps=(0.0, 0.0, 0.0),
+            episode_id="e1"))
+        assert time.monotonic() - t0 < 0.5
+    finally:
+        service.close()

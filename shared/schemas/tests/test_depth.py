@@ -182,3 +182,14 @@ def test_find_blobs_with_or_without_given_points() -> None:
         np.testing.assert_array_equal(x.lo_m, y.lo_m)
         np.testing.assert_array_equal(x.hi_m, y.hi_m)
         assert x.n_points == y.n_points and x.bbox_px == y.bbox_px
+
+
+def test_squared_distance_sums_in_numpys_order() -> None:
+    """The bit-for-bit argument rests on ``np.sum`` over a length-3 last axis adding
+    ``(x + y) + z``; pin it, so a numpy that sums otherwise fails here, not in an episode."""
+    from llmland_schemas.depth import _planes, _squared_distance
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(0.0, 10.0, (50, 40, 3)), rng.normal(0.0, 10.0, (50, 40, 3))
+    a[rng.random((50, 40)) < 0.1] = np.nan
+    np.testing.assert_array_equal(_squared_distance(_planes(a), _planes(b)), np.sum((a - b) ** 2, axis=-1))
