@@ -29,6 +29,11 @@ class PlannerSettings(BaseSettings):
     sweep_horizon_s: float = 2.0
     # perception and semantics
     baseline_margin_m: float = 1.0
+    #: a still thing a side view cut at the top may reach this far (m) past its seen footprint
+    #: above what was seen: the forward camera, pitched down, never sees its own altitude, and a
+    #: tree's crown spreads over its trunk (crowns here up to 3.0 m from the trunk:
+    #: ``llmland_sim`` broadleaf trees, 1.15 x a crown radius of at most 2.6 m)
+    unseen_top_reach_m: float = 3.0
     #: a spec applies to tracks whose centroid is within max(this, the object's radius) (m) of its object
     spec_match_m: float = 0.6
     #: a spec of something that may move is trusted this long (s) without a new one

@@ -39,6 +39,15 @@ class TrackView:
     human: bool = False
 
 
+def class_top_m(spec: SafetySpec) -> float:
+    """The tallest (m) a thing of the spec's class can be: a person's maximum height (plus
+    :data:`PERSON_HEIGHT_SLACK_M`) for a human; else the spec's overfly altitude ``z_min`` — the
+    spec says the drone may pass above it, so nothing of the class reaches higher."""
+    if spec.is_human:
+        return PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
+    return spec.z_min
+
+
 def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings) -> SafetySpec:
     """The track's spec, or the most conservative class when it has none or it no longer holds.
 
@@ -47,11 +56,18 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
     while the track keeps its shape: if its height changes by more than
     ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
     blob) the spec is void. A static thing that moves is caught by :func:`view_track`.
+
+    A spec the depth contradicts is void too: a side view that cut the track at the top shows it
+    taller than its class can be (:func:`class_top_m`) — a tree's trunk under a crown the
+    forward camera cannot see, captioned "person" or "tall grass". Read as the class, the
+    crown would be overflown at the class's height (urban seed 12: into the crown of a tree).
     """
     attached = track.spec
     if attached is None:
         return SafetySpec.conservative()
     s, spec = settings, attached.spec
+    if track.touches_top and float(track.hi_m[2] - track.lo_m[2]) > class_top_m(spec):
+        return SafetySpec.conservative()
     if spec.is_dynamic or spec.is_human is not False:
         if t_s - attached.applied_s > s.spec_stale_s:
             return SafetySpec.conservative()

@@ -312,10 +312,18 @@ class WorldModel:
         centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
         top = z0 + max(height + min(v.buffer_m, OVERFLY_CLEARANCE_M), v.z_min)
         buffer_m = self._yielding_buffer(v, centre, half, v.buffer_m, top)
-        return from_obstacle(centre, half, height, buffer_m, v.z_min,
-                             velocity_xy=tr.velocity_mps[:2] if v.moving else None,
-                             horizon_s=s.sweep_horizon_s if v.moving else 0.0,
-                             obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
+        boxes = from_obstacle(centre, half, height, buffer_m, v.z_min,
+                              velocity_xy=tr.velocity_mps[:2] if v.moving else None,
+                              horizon_s=s.sweep_horizon_s if v.moving else 0.0,
+                              obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
+        if tr.touches_top and not v.moving and not v.human:
+            # above what the side view saw, the thing may reach wider (a crown over its trunk)
+            reach = self._yielding_buffer(v, centre, half, max(buffer_m, s.unseen_top_reach_m), top)
+            if reach > buffer_m:
+                lo, hi = centre - half - reach, centre + half + reach
+                boxes.append(UnsafeRegion(np.array([lo[0], lo[1], float(tr.hi_m[2])]), np.array([hi[0], hi[1], top]),
+                                          tr.track_id, v.label, v.dynamic, reach, v.z_min, {"unseen_top": 1.0}))
+        return boxes
 
     def landing_regions(self, t_s: float, duration_s: float) -> list[UnsafeRegion]:
         """What the landing disc must stay clear of for a descent of ``duration_s`` from ``t_s``.

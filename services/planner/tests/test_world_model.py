@@ -331,3 +331,59 @@ def test_lockstep_takes_a_frame_at_the_tick_after_its_stamp():
         assert (wm.tracker.revision == before) is lockstep
         wm.ingest(0.22, lockstep=lockstep)
         assert wm.tracker.revision == before + 1
+
+
+def _trunk_blob(x: float, y: float, seen_h: float) -> Blob:
+    """A tree trunk as the forward camera sees it from cruise altitude: thin, cut at the top."""
+    lo, hi = np.array([x - 0.15, y - 0.15, 0.0]), np.array([x + 0.15, y + 0.15, seen_h])
+    return Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo,
+                n_points=100, bbox_px=(0, 0, 10, 10), footprint_radius_m=0.2, touches_top=True,
+                touches_border=True)
+
+
+def _spec_for_trunk(wm: WorldModel, spec: SafetySpec, x: float, y: float) -> None:
+    wm.on_spec(SafetySpecMessage(stamp=0.0, scene=spec, objects=[
+        ObjectSpec(obj_id="b0", centroid_m=(x, y, 1.2), size_m=(0.3, 0.3, 2.4), spec=spec)]))
+
+
+@pytest.mark.parametrize("spec", [
+    SafetySpec(is_dynamic=True, is_human=True, z_min=3.0, buffer_m=3.0, label="person", source="rag"),
+    SafetySpec(is_dynamic=False, is_human=False, z_min=1.5, buffer_m=1.0, label="tall grass", source="rag"),
+])
+def test_a_spec_the_cut_view_shows_too_short_for_is_void(spec: SafetySpec) -> None:
+    """Regression (urban seed 12, llm-land): a tree's trunk, its crown above the forward camera's
+    view, was captioned "tall grass", then "person"; the person's height bound put the keep-out's
+    top under the cruise altitude and the drone flew into the crown. A thing seen taller than its
+    class can be, and cut at the top, is of unknown class."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_trunk_blob(1.1, -6.1, 2.4)], 0.0)
+    _spec_for_trunk(wm, spec, 1.1, -6.1)
+    regions = _regions(wm, 0.0)
+    assert {r.label for r in regions} == {"unknown"}
+    assert max(r.hi[2] for r in regions) > 5.0  # the careful class is not overflown at cruise altitude
+
+
+def test_a_person_cut_at_the_top_keeps_the_persons_spec() -> None:
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_trunk_blob(5.0, 0.0, 1.2)], 0.0)  # the top of the frame cuts them at the chest
+    _spec_for_trunk(wm, SafetySpec(is_dynamic=True, is_human=True, z_min=3.0, buffer_m=3.0, label="person",
+                                   source="rag"), 5.0, 0.0)
+    assert {r.label for r in _regions(wm, 0.0)} == {"person"}
+
+
+@pytest.mark.parametrize("method", ["llm-land", "baseline"])
+def test_above_a_cut_view_a_still_thing_may_reach_wider(method: str) -> None:
+    """What the forward camera cannot see above a trunk (a crown) is kept out to
+    ``unseen_top_reach_m`` past the trunk, above the seen top only; a fully seen one is not."""
+    s = PlannerSettings()
+    wm = WorldModel(s, method)
+    wm.tracker.update([_trunk_blob(1.1, -6.1, 2.4)], 0.0)
+    _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree",
+                                   source="rag"), 1.1, -6.1)
+    regions = _regions(wm, 0.0)
+    crown = [r for r in regions if r.meta.get("unseen_top")]
+    assert len(crown) == 1 and crown[0].lo[2] == pytest.approx(2.4)
+    assert crown[0].hi[0] - 1.1 == pytest.approx(0.15 + s.unseen_top_reach_m)
+    whole = WorldModel(s, method)
+    whole.tracker.update([_blob(1.1, -6.1, 2.4)], 0.0)
+    assert not [r for r in _regions(whole, 0.0) if r.meta.get("unseen_top")]
