@@ -72,13 +72,23 @@ def start_clearance_m(pos: FloatArray, regions: list[UnsafeRegion]) -> float:
     """Radius (m) of the start's clearance ball: the shortest way out of every region that holds
     the vehicle (:func:`~.regions.escape_distance_m`) plus ``START_CLEARANCE_MARGIN_M``, but no
     farther than the smallest keep-out buffer among them, so the ball never reaches the thing
-    itself; never less than the deepest single region's depth (what it was before)."""
+    itself; never less than the deepest single region's depth (what it was before).
+
+    A box kept out above a cut view (``meta["unseen_top"]``: what may reach over a trunk) is a
+    guess, wide around a thin thing: it adds no depth, and the ball stops at the seen footprint
+    inside it (the box less its buffer), which a deep ball would otherwise reach."""
     inside = [r for r in regions if r.contains(pos)]
     if not inside:
         return START_CLEARANCE_MARGIN_M
-    depth = max(-r.signed_distance(pos) for r in inside)
+    seen = [r for r in inside if not r.meta.get("unseen_top")]
+    depth = max((-r.signed_distance(pos) for r in seen), default=0.0)
     escape = min(escape_distance_m(pos, regions), min(r.buffer_m for r in inside))
-    return max(depth, escape) + START_CLEARANCE_MARGIN_M
+    radius = max(depth, escape) + START_CLEARANCE_MARGIN_M
+    for r in inside:
+        if r.meta.get("unseen_top"):
+            core = UnsafeRegion(r.lo + [r.buffer_m, r.buffer_m, 0.0], r.hi - [r.buffer_m, r.buffer_m, 0.0])
+            radius = min(radius, max(0.0, core.signed_distance(pos)))
+    return radius
 
 
 class Replanner:

@@ -39,15 +39,6 @@ class TrackView:
     human: bool = False
 
 
-def class_top_m(spec: SafetySpec) -> float:
-    """The tallest (m) a thing of the spec's class can be: a person's maximum height (plus
-    :data:`PERSON_HEIGHT_SLACK_M`) for a human; else the spec's overfly altitude ``z_min`` — the
-    spec says the drone may pass above it, so nothing of the class reaches higher."""
-    if spec.is_human:
-        return PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
-    return spec.z_min
-
-
 def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings) -> SafetySpec:
     """The track's spec, or the most conservative class when it has none or it no longer holds.
 
@@ -57,17 +48,11 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
     ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
     blob) the spec is void. A static thing that moves is caught by :func:`view_track`.
 
-    A spec the depth contradicts is void too: a side view that cut the track at the top shows it
-    taller than its class can be (:func:`class_top_m`) — a tree's trunk under a crown the
-    forward camera cannot see, captioned "person" or "tall grass". Read as the class, the
-    crown would be overflown at the class's height (urban seed 12: into the crown of a tree).
     """
     attached = track.spec
     if attached is None:
         return SafetySpec.conservative()
     s, spec = settings, attached.spec
-    if track.touches_top and float(track.hi_m[2] - track.lo_m[2]) > class_top_m(spec):
-        return SafetySpec.conservative()
     if spec.is_dynamic or spec.is_human is not False:
         if t_s - attached.applied_s > s.spec_stale_s:
             return SafetySpec.conservative()
@@ -99,6 +84,14 @@ def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
     return tall_enough and tr.half_diagonal_m <= s.person_max_radius_m
 
 
+def taller_than_a_person(tr: TrackedObstacle) -> bool:
+    """A side view cut it at the top with more than a person's height (2 m + slack) already seen:
+    whatever a spec says, it is not only a person (a trunk under a crown the forward camera
+    cannot see, captioned "person": bounded at a person's height, its crown was flown into,
+    urban seed 12), so no person's height bound applies to it."""
+    return tr.touches_top and float(tr.hi_m[2] - tr.lo_m[2]) > PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
+
+
 def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:
     """How the method sees one track at ``t_s``.
 
@@ -120,7 +113,7 @@ def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSe
             person = bool(spec.is_human) or moving or tr.has_moved
         believed = moving and (spec.is_dynamic or person)
         return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
-                         human=spec.is_human is True)
+                         human=spec.is_human is True and not taller_than_a_person(tr))
     if method == BLIND_CAUTION_METHOD:
         return TrackView(tr, moving, PERSON_BUFFER_M, PERSON_Z_MIN_M, "person?", True, True)
     # geometry cannot tell a standing person from a post, but one who has walked stays a possible person

@@ -272,9 +272,15 @@ class WorldModel:
         s = self.settings
         if self.target_m is None or v.moving or v.possible_person or top_m < self.target_m[2] + s.cruise_altitude_m:
             return buffer_m
+        return self._clear_of_disc(centre, half, buffer_m)
+
+    def _clear_of_disc(self, centre: FloatArray, half: FloatArray, buffer_m: float) -> float:
+        """``buffer_m`` shrunk so that the footprint grown by it leaves the landing disc outside."""
+        if self.target_m is None:
+            return buffer_m
         # the footprint's Chebyshev distance to the target: the box grown by b stays that far minus b
         gap = float(np.max(np.abs(self.target_m[:2] - centre) - half))
-        return max(0.0, min(buffer_m, gap - s.landing_disc_radius_m))
+        return max(0.0, min(buffer_m, gap - self.settings.landing_disc_radius_m))
 
     def regions(self, t_s: float) -> list[UnsafeRegion]:
         """The semantic keep-out at ``t_s`` (path and hover point); reads only.
@@ -317,8 +323,9 @@ class WorldModel:
                               horizon_s=s.sweep_horizon_s if v.moving else 0.0,
                               obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
         if tr.touches_top and not v.moving and not v.human:
-            # above what the side view saw, the thing may reach wider (a crown over its trunk)
-            reach = self._yielding_buffer(v, centre, half, max(buffer_m, s.unseen_top_reach_m), top)
+            # above what the side view saw, the thing may reach wider (a crown over its trunk); a
+            # guess about a still thing, it yields to the landing disc whatever the class
+            reach = self._clear_of_disc(centre, half, max(buffer_m, s.unseen_top_reach_m))
             if reach > buffer_m:
                 lo, hi = centre - half - reach, centre + half + reach
                 boxes.append(UnsafeRegion(np.array([lo[0], lo[1], float(tr.hi_m[2])]), np.array([hi[0], hi[1], top]),

@@ -349,18 +349,20 @@ def _spec_for_trunk(wm: WorldModel, spec: SafetySpec, x: float, y: float) -> Non
 @pytest.mark.parametrize("spec", [
     SafetySpec(is_dynamic=True, is_human=True, z_min=3.0, buffer_m=3.0, label="person", source="rag"),
     SafetySpec(is_dynamic=False, is_human=False, z_min=1.5, buffer_m=1.0, label="tall grass", source="rag"),
+    SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree", source="rag"),
 ])
-def test_a_spec_the_cut_view_shows_too_short_for_is_void(spec: SafetySpec) -> None:
+def test_a_trunk_cut_at_the_top_is_kept_out_where_its_crown_may_be(spec: SafetySpec) -> None:
     """Regression (urban seed 12, llm-land): a tree's trunk, its crown above the forward camera's
     view, was captioned "tall grass", then "person"; the person's height bound put the keep-out's
-    top under the cruise altitude and the drone flew into the crown. A thing seen taller than its
-    class can be, and cut at the top, is of unknown class."""
+    top under the cruise altitude and the drone flew into the crown, 2.0 m from the trunk at
+    3.3 m. Whatever the class, the cruise altitude around the trunk is kept out."""
     wm = WorldModel(PlannerSettings(), "llm-land")
     wm.tracker.update([_trunk_blob(1.1, -6.1, 2.4)], 0.0)
     _spec_for_trunk(wm, spec, 1.1, -6.1)
     regions = _regions(wm, 0.0)
-    assert {r.label for r in regions} == {"unknown"}
-    assert max(r.hi[2] for r in regions) > 5.0  # the careful class is not overflown at cruise altitude
+    assert {r.label for r in regions} == {spec.label}
+    for dx, dy in ((2.4, 0.0), (-1.0, -2.0), (0.0, 2.4)):
+        assert any(r.contains(np.array([1.1 + dx, -6.1 + dy, 3.3])) for r in regions)
 
 
 def test_a_person_cut_at_the_top_keeps_the_persons_spec() -> None:
@@ -387,3 +389,35 @@ def test_above_a_cut_view_a_still_thing_may_reach_wider(method: str) -> None:
     whole = WorldModel(s, method)
     whole.tracker.update([_blob(1.1, -6.1, 2.4)], 0.0)
     assert not [r for r in _regions(whole, 0.0) if r.meta.get("unseen_top")]
+
+
+@pytest.mark.parametrize("method", ["llm-land", "baseline"])
+def test_the_reach_above_a_cut_view_yields_to_the_landing_disc_whatever_the_class(method: str) -> None:
+    """A trunk 3 m from the pad that has moved (a possible person: its own buffer does not yield)
+    must not put the hover point inside the reach box above it for good."""
+    s = PlannerSettings()
+    target = np.array([3.0, 0.0, 0.0])
+    wm = WorldModel(s, method, target)
+    wm.tracker.update([_trunk_blob(0.0, 0.0, 2.4)], 0.0)
+    wm.tracker.mark_moved(lambda tr: True)  # a possible person from now on
+    _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree",
+                                   source="rag"), 0.0, 0.0)
+    hover = target + [0.0, 0.0, 3.5]
+    crown = [r for r in _regions(wm, 0.0) if r.meta.get("unseen_top")]
+    assert crown and not any(r.contains(hover) for r in crown)
+    assert all(r.hi[0] <= target[0] - s.landing_disc_radius_m + 1e-9 for r in crown)
+
+
+def test_the_start_ball_inside_a_reach_box_stops_at_the_seen_footprint() -> None:
+    """The search treats the start's clearance ball as free: inside the wide box guessed over a
+    trunk it must not reach the trunk itself."""
+    from llmland_planner.replanning import start_clearance_m
+
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_trunk_blob(0.0, 0.0, 2.4)], 0.0)
+    _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree",
+                                   source="rag"), 0.0, 0.0)
+    regions = _regions(wm, 0.0)
+    for x in (1.3, 1.6, 2.0, 3.0):
+        pos = np.array([x, 0.0, 3.5])
+        assert x - start_clearance_m(pos, regions) >= 0.15 - 1e-9  # the trunk's seen face
