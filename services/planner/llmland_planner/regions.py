@@ -38,6 +38,9 @@ OVERFLY_CLEARANCE_M = 0.5
 BELOW_GROUND_M = 1.0
 #: a moving obstacle's sweep is cut into slices of this duration (s)
 SWEEP_SLICE_S = 0.25
+#: ``UnsafeRegion.meta`` key of a box guessed above a view cut at the top (its ``buffer_m`` is
+#: the guessed reach past the seen footprint; ``world_model.WorldModel._keepout``)
+UNSEEN_TOP = "unseen_top"
 
 
 @dataclass

@@ -27,7 +27,7 @@ from llmland_schemas.arrays import FloatArray
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .mpc import Halfspaces
 from .path import Path, resample
-from .regions import UnsafeRegion, boxes_array, escape_distance_m, segments_hit_boxes
+from .regions import UNSEEN_TOP, UnsafeRegion, boxes_array, escape_distance_m, segments_hit_boxes
 from .search import SearchConfig, plan
 from .settings import PlannerSettings
 
@@ -74,20 +74,19 @@ def start_clearance_m(pos: FloatArray, regions: list[UnsafeRegion]) -> float:
     farther than the smallest keep-out buffer among them, so the ball never reaches the thing
     itself; never less than the deepest single region's depth (what it was before).
 
-    A box kept out above a cut view (``meta["unseen_top"]``: what may reach over a trunk) is a
+    A box kept out above a cut view (``meta[UNSEEN_TOP]``: what may reach over a trunk) is a
     guess, wide around a thin thing: it adds no depth, and the ball stops at the seen footprint
     inside it (the box less its buffer), which a deep ball would otherwise reach."""
     inside = [r for r in regions if r.contains(pos)]
     if not inside:
         return START_CLEARANCE_MARGIN_M
-    seen = [r for r in inside if not r.meta.get("unseen_top")]
-    depth = max((-r.signed_distance(pos) for r in seen), default=0.0)
+    guessed = [r for r in inside if r.meta.get(UNSEEN_TOP)]
+    depth = max((-r.signed_distance(pos) for r in inside if not r.meta.get(UNSEEN_TOP)), default=0.0)
     escape = min(escape_distance_m(pos, regions), min(r.buffer_m for r in inside))
     radius = max(depth, escape) + START_CLEARANCE_MARGIN_M
-    for r in inside:
-        if r.meta.get("unseen_top"):
-            core = UnsafeRegion(r.lo + [r.buffer_m, r.buffer_m, 0.0], r.hi - [r.buffer_m, r.buffer_m, 0.0])
-            radius = min(radius, max(0.0, core.signed_distance(pos)))
+    for r in guessed:  # the seen footprint inside it: the box less its buffer, horizontally
+        core = UnsafeRegion(r.lo + [r.buffer_m, r.buffer_m, 0.0], r.hi - [r.buffer_m, r.buffer_m, 0.0])
+        radius = min(radius, max(0.0, core.signed_distance(pos)))
     return radius
 
 

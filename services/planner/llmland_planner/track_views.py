@@ -47,7 +47,6 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
     while the track keeps its shape: if its height changes by more than
     ``spec_height_tolerance_m`` (a person stepped next to the rock and the two now form one
     blob) the spec is void. A static thing that moves is caught by :func:`view_track`.
-
     """
     attached = track.spec
     if attached is None:
@@ -57,7 +56,7 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
         if t_s - attached.applied_s > s.spec_stale_s:
             return SafetySpec.conservative()
     else:
-        height, was = float(track.hi_m[2] - track.lo_m[2]), attached.height_m
+        height, was = track.height_m, attached.height_m
         if was < s.person_min_height_m <= height - s.spec_height_tolerance_m:  # grew to a person's height
             return SafetySpec.conservative()
     return spec
@@ -79,7 +78,7 @@ def person_sized(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
     """A person's height (``person_min_height_m`` up to 2 m + slack) and footprint (half
     diagonal at most ``person_max_radius_m``)."""
     s = settings
-    height = float(tr.hi_m[2] - tr.lo_m[2])
+    height = tr.height_m
     tall_enough = s.person_min_height_m <= height <= PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
     return tall_enough and tr.half_diagonal_m <= s.person_max_radius_m
 
@@ -89,7 +88,7 @@ def taller_than_a_person(tr: TrackedObstacle) -> bool:
     whatever a spec says, it is not only a person (a trunk under a crown the forward camera
     cannot see, captioned "person": bounded at a person's height, its crown was flown into,
     urban seed 12), so no person's height bound applies to it."""
-    return tr.touches_top and float(tr.hi_m[2] - tr.lo_m[2]) > PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
+    return tr.touches_top and tr.height_m > PERSON_MAX_HEIGHT_M + PERSON_HEIGHT_SLACK_M
 
 
 def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSettings) -> TrackView:

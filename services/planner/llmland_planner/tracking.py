@@ -138,6 +138,11 @@ class TrackedObstacle:
         return result
 
     @property
+    def height_m(self) -> float:
+        """Seen height (m) from the ground under it to the highest point seen."""
+        return float(self.hi_m[2] - self.lo_m[2])
+
+    @property
     def half_diagonal_m(self) -> float:
         """Half the seen footprint's diagonal (m): the radius it sweeps turning on the spot."""
         return float(np.hypot(*self.half_extent_m))
@@ -243,7 +248,7 @@ class ObstacleTracker:
         """
         age = np.array([max(0.0, stamp_s - t.last_seen_s) for t in self._tracks])
         wide = np.minimum(self.gate_m + self.gate_growth_mps * age, max(self.gate_m, self.gate_max_m))
-        t_h = np.array([t.hi_m[2] - t.lo_m[2] for t in self._tracks])
+        t_h = np.array([t.height_m for t in self._tracks])
         b_h = np.array([b.hi_m[2] - b.lo_m[2] for b in blobs])
         alike = np.abs(t_h[:, None] - b_h[None, :]) <= GATE_HEIGHT_ALIKE_M
         return np.where(alike, wide[:, None], self.gate_m)

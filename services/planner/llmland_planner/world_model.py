@@ -38,7 +38,7 @@ from llmland_schemas.frames import CameraFrame
 from .ground import GroundMap
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
 from .look_ahead import view_half_azimuth_rad
-from .regions import OVERFLY_CLEARANCE_M, UnsafeRegion, from_obstacle
+from .regions import OVERFLY_CLEARANCE_M, UNSEEN_TOP, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
 from .specs import AttachedSpec, PendingSpec, more_careful
 from .track_views import (
@@ -212,7 +212,7 @@ class WorldModel:
                 prev = batch.get(track.track_id)
                 batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
         for track, spec in batch.values():
-            track.spec = AttachedSpec(spec, t_s, float(track.hi_m[2] - track.lo_m[2]))
+            track.spec = AttachedSpec(spec, t_s, track.height_m)
             self.specs_applied += 1
             self.version += 1
 
@@ -249,7 +249,7 @@ class WorldModel:
         tr = v.track
         centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2]) + tr.velocity_mps[:2] * t_pred_s
         half = np.full(2, tr.half_diagonal_m) if self._may_turn(v) else tr.half_extent_m
-        height = float(tr.hi_m[2] - tr.lo_m[2])
+        height = tr.height_m
         if v.human:
             height, half = min(height, PERSON_MAX_HEIGHT_M), np.maximum(half, PERSON_BODY_RADIUS_M)
         elif tr.touches_top:
@@ -329,7 +329,7 @@ class WorldModel:
             if reach > buffer_m:
                 lo, hi = centre - half - reach, centre + half + reach
                 boxes.append(UnsafeRegion(np.array([lo[0], lo[1], float(tr.hi_m[2])]), np.array([hi[0], hi[1], top]),
-                                          tr.track_id, v.label, v.dynamic, reach, v.z_min, {"unseen_top": 1.0}))
+                                          tr.track_id, v.label, v.dynamic, reach, v.z_min, {UNSEEN_TOP: 1.0}))
         return boxes
 
     def landing_regions(self, t_s: float, duration_s: float) -> list[UnsafeRegion]:

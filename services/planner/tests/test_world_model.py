@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from llmland_planner.regions import UNSEEN_TOP
 from llmland_planner.settings import PlannerSettings
 from llmland_planner.world_model import WorldModel
 from llmland_schemas import CONSERVATIVE_BUFFER_M, ObjectSpec, SafetySpec, SafetySpecMessage
@@ -383,12 +384,12 @@ def test_above_a_cut_view_a_still_thing_may_reach_wider(method: str) -> None:
     _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree",
                                    source="rag"), 1.1, -6.1)
     regions = _regions(wm, 0.0)
-    crown = [r for r in regions if r.meta.get("unseen_top")]
+    crown = [r for r in regions if r.meta.get(UNSEEN_TOP)]
     assert len(crown) == 1 and crown[0].lo[2] == pytest.approx(2.4)
     assert crown[0].hi[0] - 1.1 == pytest.approx(0.15 + s.unseen_top_reach_m)
     whole = WorldModel(s, method)
     whole.tracker.update([_blob(1.1, -6.1, 2.4)], 0.0)
-    assert not [r for r in _regions(whole, 0.0) if r.meta.get("unseen_top")]
+    assert not [r for r in _regions(whole, 0.0) if r.meta.get(UNSEEN_TOP)]
 
 
 @pytest.mark.parametrize("method", ["llm-land", "baseline"])
@@ -403,7 +404,7 @@ def test_the_reach_above_a_cut_view_yields_to_the_landing_disc_whatever_the_clas
     _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=12.0, buffer_m=1.0, label="tree",
                                    source="rag"), 0.0, 0.0)
     hover = target + [0.0, 0.0, 3.5]
-    crown = [r for r in _regions(wm, 0.0) if r.meta.get("unseen_top")]
+    crown = [r for r in _regions(wm, 0.0) if r.meta.get(UNSEEN_TOP)]
     assert crown and not any(r.contains(hover) for r in crown)
     assert all(r.hi[0] <= target[0] - s.landing_disc_radius_m + 1e-9 for r in crown)
 
