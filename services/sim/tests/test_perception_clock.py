@@ -75,7 +75,7 @@ def test_unanswered_request_times_out_into_degraded_and_recovers() -> None:
     clock.on_frame_sent(1, 0.4)  # a probe: never holds the sim back
     t0 = time.perf_counter()
     clock.wait_before(5.0, STOP)
-    assert time.perf_counter() - t0 < 0.05
+    assert time.perf_counter() - t0 < 1.0  # not the 5 s wait (loose: CI load)
     clock.on_spec(1, 3.0, 2.0)  # perception is back at sim time 2.0
     clock.finish(3.0)
     assert clock.ever_degraded and clock.degraded_s == pytest.approx(1.8)
