@@ -129,10 +129,8 @@ class TrackedObstacle:
     #: the newest sightings ``(stamp s, centroid (3,) m)``, every camera: what a spec computed from
     #: an older frame is matched against (the thing may have moved since)
     sightings: deque[tuple[float, FloatArray]] = field(default_factory=lambda: deque(maxlen=SIGHTINGS_KEPT))
-    #: per camera, the horizontal displacement (3,) m both visible edges agreed on, summed over
-    #: consecutive views: where the body's rigid path is now (view changes and jitter cancel out)
-    rigid_travel_m: dict[str, FloatArray] = field(default_factory=dict)
-    #: per camera, the newest points of that rigid path (the sums above, one per view)
+    #: per camera, the rigid path: the horizontal displacement (3,) m both visible edges agreed on,
+    #: summed over consecutive views, one point per view (the newest ``RIGID_PATH_KEPT``)
     rigid_path_m: dict[str, deque[FloatArray]] = field(default_factory=dict)
     #: the farthest (m) a rigid path has been from any of its earlier points (kept ones), any camera
     rigid_excursion_m: float = 0.0
@@ -153,6 +151,11 @@ class TrackedObstacle:
         """Half the seen footprint's diagonal (m): the radius it sweeps turning on the spot."""
         return float(np.hypot(*self.half_extent_m))
 
+    @property
+    def rigid_travel_m(self) -> dict[str, FloatArray]:
+        """Per camera, where the rigid path is now (3,) m: how far the body travelled, view changes
+        and jitter cancelling out."""
+        return {source: path[-1] for source, path in self.rigid_path_m.items()}
 
 
 class ObstacleTracker:
@@ -307,12 +310,11 @@ class ObstacleTracker:
         1.1 m back) ends near where they started, yet is metres from their turning point. A still
         object's path stays within its jitter (view changes go back and forth) from every point.
         """
-        here = track.rigid_travel_m.get(source, np.zeros(3)) + step_m
-        track.rigid_travel_m[source] = here
         path = track.rigid_path_m.setdefault(source, deque([np.zeros(3)], maxlen=RIGID_PATH_KEPT))
-        farthest = max(float(np.linalg.norm((here - p)[:2])) for p in path)
+        here = path[-1] + step_m
+        farthest = float(np.max(np.linalg.norm(np.asarray(path)[:, :2] - here[:2], axis=1)))
         track.rigid_excursion_m = max(track.rigid_excursion_m, farthest)
-        path.append(here.copy())
+        path.append(here)
 
     def predict(self, track: TrackedObstacle, t_s: float) -> FloatArray:
         """(3,) centroid (m) of ``track`` at ``t_s`` under constant velocity for at most ``predict_cap_s``."""
