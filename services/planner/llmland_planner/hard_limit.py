@@ -9,6 +9,9 @@ tracked or not — stays farther than 1 m from the landing point until touchdown
 - a tracked possible person ``i`` (observed at age ``a_i`` s ago at ``c_i`` with footprint radius
   ``r_i`` and speed ``s_i``) can be anywhere within ``|x − c_i| ≤ r_i + R(a_i + T, s_i)`` by the
   end ``T`` of the descent, where :meth:`HumanMotionBounds.reach_m` integrates the speed bound;
+  it counts while observed within ``recent_s``, and after that while it cannot have walked out
+  of the coverage (:func:`lost_inside`): a person not detected where they must still be is where
+  the coverage assumption failed (hidden under a tree), not someone the untracked bound covers;
 - anyone not tracked is, by the coverage assumption, outside the downward camera's coverage
   radius ``R_cov`` (everyone inside it is detected every frame: :mod:`.coverage` bounds the
   detector's point count on a person from below and takes ``R_cov`` where that bound is at least
@@ -99,21 +102,41 @@ class Clearance:
 
 def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], duration_s: float,
                      bounds: HumanMotionBounds, *, coverage_m: float, unseen_s: float,
-                     xy_margin_m: float, hard_limit_m: float = PERSON_HARD_LIMIT_M) -> Clearance:
+                     xy_margin_m: float, recent_s: float = math.inf, lost_within_m: float | None = None,
+                     hard_limit_m: float = PERSON_HARD_LIMIT_M) -> Clearance:
     """Margin to the hard limit if the vehicle is at ``landing_xy`` until ``duration_s`` from now.
 
     Tracked people: ``|landing − c| − r − R(age + T, speed)``; untracked people:
     ``R_cov − R(T + unseen_s)`` (unknown speed), ``unseen_s`` being how long ago the coverage was
     seen (the newest downward frame's age, at least one frame period). Each minus ``xy_margin_m``
     and the limit.
+
+    Which tracks count: every one observed within ``recent_s``, and every older one that
+    :func:`lost_inside` the disc of radius ``lost_within_m`` about the landing point (default
+    ``coverage_m``): a person who cannot have left the coverage since they were last seen, yet is
+    not detected in it, is where the coverage assumption has failed (hidden under a tree, the
+    detector missed them), so they keep their own reachable set. Older tracks that could have left
+    are the untracked bound's.
     """
     untracked = coverage_m - bounds.reach_m(duration_s + unseen_s) - xy_margin_m - hard_limit_m
     worst = Clearance(untracked, "")
     p = np.asarray(landing_xy, dtype=float)[:2]
+    within = coverage_m if lost_within_m is None else lost_within_m
     for person in people:
         dist = float(np.linalg.norm(p - person.centre_xy[:2]))
+        if person.age_s > recent_s and not lost_inside(dist, person, within, bounds):
+            continue
         reach = bounds.reach_m(person.age_s + duration_s, person.speed_mps)
         margin = dist - person.radius_m - reach - xy_margin_m - hard_limit_m
         if margin < worst.margin_m:
             worst = Clearance(margin, person.track_id)
     return worst
+
+
+def lost_inside(dist_m: float, person: PersonHypothesis, within_m: float, bounds: HumanMotionBounds) -> bool:
+    """Whether ``person``, last seen ``dist_m`` from the centre, is still within ``within_m`` of it
+    wherever they walked since: ``dist + r + R(age, speed) < within_m`` (m). Infinite ``within_m``
+    (no coverage claimed) keeps nobody: the test is only a check on the coverage assumption."""
+    if not math.isfinite(within_m):
+        return False
+    return dist_m + person.radius_m + bounds.reach_m(person.age_s, person.speed_mps) < within_m

@@ -22,6 +22,7 @@ target), ``hold`` (hover there until the gate opens), ``descend`` (the profile o
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -122,6 +123,8 @@ class LandingLogic:
     phase: Phase = Phase.APPROACH
     climbed: bool = False
     last_gate: GateDecision | None = None
+    #: coverage radius (m) of the last uncommitted gate, the one a descent was committed on
+    commit_coverage_m: float = math.inf
     profile: DescentProfile = field(init=False)
     bounds: HumanMotionBounds = field(init=False)
 
@@ -156,8 +159,13 @@ class LandingLogic:
         # untracked people: outside the coverage at the newest downward frame, at least one frame
         # period ago (a frame may land between two checks), walking since
         unseen_s = max(s.coverage_frame_period_s, around.coverage_age_s)
+        if not committed:
+            self.commit_coverage_m = coverage
+        # tracks lost where they cannot have left the coverage shown at the commit keep their own
+        # reachable set while the descent is under way (hard_limit.lost_inside)
         clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
-                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m)
+                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m,
+                                     recent_s=s.recent_observation_s, lost_within_m=self.commit_coverage_m)
         clear = disc_clear(self.target_m[:2], s.landing_disc_radius_m, around.landing_regions(duration))
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate

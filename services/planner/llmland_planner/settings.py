@@ -66,7 +66,8 @@ class PlannerSettings(BaseSettings):
     human_step_speed_mps: float = 0.5
     human_max_accel_mps2: float = 2.0
     human_speed_error_mps: float = 0.3
-    #: tracks seen within this time (s) enter the gate one by one; older ones are outside coverage
+    #: tracks seen within this time (s) enter the gate one by one; older ones only while they
+    #: cannot have left the coverage (hard_limit.lost_inside), else the untracked bound covers them
     recent_observation_s: float = 0.5
     #: horizontal error (m) of the landing point: position tracking plus body half-depth
     landing_xy_margin_m: float = 0.25

@@ -368,21 +368,16 @@ class WorldModel:
                 if self.spec_for(v.track, t_s).source == "fallback"]
 
     def people(self, t_s: float) -> list[PersonHypothesis]:
-        """Possible people observed within ``recent_observation_s`` (the hard limit's input).
-
-        Older tracks are not needed: by the coverage assumption anyone within the downward
-        camera's coverage is detected every frame, so a track not seen lately is outside it and
-        the untracked bound of :func:`~llmland_planner.hard_limit.commit_clearance` covers it.
-        """
-        s = self.settings
+        """Every live possible person, with the age of their last observation (the hard limit's
+        input; :func:`~llmland_planner.hard_limit.commit_clearance` decides which ones count: the
+        recent ones, and older ones that cannot have left the coverage since)."""
         out: list[PersonHypothesis] = []
         for v in self.views(t_s):
-            tr = v.track
-            age = max(0.0, t_s - tr.last_seen_s)
-            if not v.possible_person or age > s.recent_observation_s:
+            if not v.possible_person:
                 continue
+            tr = v.track
             centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2])
             radius = max(tr.half_diagonal_m, PERSON_BODY_RADIUS_M)
             out.append(PersonHypothesis(tr.track_id, centre, radius, float(np.linalg.norm(tr.velocity_mps[:2])),
-                                        age, v.label))
+                                        max(0.0, t_s - tr.last_seen_s), v.label))
         return out

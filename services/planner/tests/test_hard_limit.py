@@ -60,7 +60,7 @@ def _descent_heights(logic: LandingLogic, duration_s: float) -> np.ndarray:
 @settings(max_examples=300, deadline=None)
 @given(
     dist=st.floats(1.0, 9.0), bearing=st.floats(-math.pi, math.pi), speed=st.floats(0.0, 1.6),
-    heading=st.floats(-math.pi, math.pi), age=st.floats(0.0, 0.5), axis_off=st.floats(0.0, PERSON_BODY_RADIUS_M),
+    heading=st.floats(-math.pi, math.pi), age=st.floats(0.0, 3.0), axis_off=st.floats(0.0, PERSON_BODY_RADIUS_M),
     off_dir=st.floats(-math.pi, math.pi), turn=st.floats(-math.pi, math.pi), xy_err=st.floats(0.0, 0.2),
     strategy=st.sampled_from(["straight", "turn", "late"]),
 )

@@ -3,7 +3,7 @@ climb out when a reachable set is about to touch above the commit height, touchd
 
 import numpy as np
 import pytest
-from llmland_planner.hard_limit import PersonHypothesis
+from llmland_planner.hard_limit import PersonHypothesis, commit_clearance
 from llmland_planner.landing import LandingLogic, Phase, Surroundings, disc_clear, hover_altitude
 from llmland_planner.regions import UnsafeRegion
 from llmland_planner.settings import PlannerSettings
@@ -103,3 +103,42 @@ def test_coverage_is_computed_only_for_a_gate_not_yet_committed() -> None:
     logic.gate(S.cruise_altitude_m, 0.0, around)
     logic.gate(S.cruise_altitude_m, 0.0, around)
     assert calls == [1] and around.coverage_m == 7.0
+
+
+def test_a_person_lost_where_they_cannot_have_left_the_coverage_keeps_the_gate_shut() -> None:
+    """forest_edge seed 50 (baseline): a person who had walked stood 2 m from the pad, hidden from
+    the downward camera for more than ``recent_observation_s``; the gate left them to the
+    untracked bound and opened with 0 possible people, they reappeared and passed 0.994 m from the
+    climbing vehicle. Lost 1 s ago 2 m away, they cannot have walked out of a 5.9 m coverage: the
+    coverage assumption failed for them, so they keep their own reachable set."""
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    lost = _person(2.0, age=1.0)
+    assert lost.age_s > S.recent_observation_s
+    assert logic.update(ABOVE, STILL, 0.0, _around([lost], coverage_m=5.9))[0] == Phase.HOLD
+    assert logic.last_gate is not None and logic.last_gate.clearance.track_id == "p"
+
+
+def test_a_person_lost_who_could_have_left_the_coverage_is_the_untracked_bounds() -> None:
+    """Not every lost track closes the gate: one last seen 7 m out 2 s ago can be outside a 9 m
+    coverage by now, where the untracked bound covers them (counted, their reach would close it)."""
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    gone = _person(7.0, age=2.0)
+    assert logic.update(ABOVE, STILL, 0.0, _around([gone], coverage_m=9.0))[0] == Phase.DESCEND
+    assert logic.last_gate is not None
+    counted = commit_clearance(TARGET[:2], [gone], logic.last_gate.duration_s, logic.bounds, coverage_m=9.0,
+                               unseen_s=S.coverage_frame_period_s, xy_margin_m=S.landing_xy_margin_m)
+    assert not counted.safe and counted.track_id == "p"
+
+
+def test_a_person_lost_inside_the_coverage_during_the_descent_makes_it_climb_out() -> None:
+    """Under way the untracked bound is not re-evaluated; a track lost inside the coverage the
+    descent was committed on still counts (the coverage shrinks as the vehicle sinks)."""
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    assert logic.update(ABOVE, STILL, 0.0, _around(coverage_m=9.0))[0] == Phase.DESCEND
+    assert logic.commit_coverage_m == pytest.approx(9.0)
+    phase, _ = logic.update(np.array([0.0, 0.0, 2.5]), np.array([0.0, 0.0, -2.0]), 0.5,
+                            _around([_person(2.5, age=1.0)], coverage_m=1.0))
+    assert phase == Phase.CLIMB_OUT

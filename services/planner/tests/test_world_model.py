@@ -142,6 +142,9 @@ def test_a_person_who_walked_then_stopped_stays_a_possible_person_for_the_baseli
         t += 0.5
     people = wm.people(t - 0.5)
     assert len(people) == 1 and people[0].speed_mps < s.moving_speed_mps
+    # then hidden (under a tree, missed): still a possible person, with the age of the last sighting
+    lost = wm.people(t + 1.0)
+    assert len(lost) == 1 and lost[0].age_s == pytest.approx(1.5)
 
 
 @pytest.mark.parametrize("is_human", [None, False])
