@@ -223,15 +223,27 @@ class _Checker:
         a, b = a.copy(), b.copy()
         r = self.cfg.clearance_radius_m
         for inside_mask, inner, outer in ((ea & ~eb, a, b), (eb & ~ea, b, a)):
-            for i in np.flatnonzero(inside_mask):
-                c = self.centers[np.argmin(np.linalg.norm(self.centers - inner[i], axis=1))]
-                d = inner[i] - outer[i]
-                f0 = outer[i] - c
-                qa, qb, qc = d @ d, 2.0 * f0 @ d, f0 @ f0 - r * r
-                disc = max(qb * qb - 4.0 * qa * qc, 0.0)
-                s = (-qb - np.sqrt(disc)) / (2.0 * qa) if qa > 1e-12 else 0.0
-                inner[i] = outer[i] + float(np.clip(s, 0.0, 1.0)) * d
+            i = np.flatnonzero(inside_mask)
+            if i.size == 0:
+                continue
+            p_in, p_out = inner[i], outer[i]
+            nearest = np.argmin(np.linalg.norm(p_in[:, None, :] - self.centers[None], axis=2), axis=1)
+            d = p_in - p_out
+            f0 = p_out - self.centers[nearest]
+            # the segment's entry into the ball: the smaller root of |f0 + s d|² = r², s in [0, 1]
+            qa, qb, qc = _rowdot(d, d), 2.0 * _rowdot(f0, d), _rowdot(f0, f0) - r * r
+            disc = np.maximum(qb * qb - 4.0 * qa * qc, 0.0)
+            long = qa > 1e-12
+            s = np.zeros(i.size)
+            s[long] = (-qb[long] - np.sqrt(disc[long])) / (2.0 * qa[long])
+            inner[i] = p_out + np.clip(s, 0.0, 1.0)[:, None] * d
         return a, b
+
+
+def _rowdot(u: FloatArray, v: FloatArray) -> FloatArray:
+    """Row-wise dot products ``(K,)`` of ``(K, 3)`` arrays."""
+    out: FloatArray = np.einsum("ij,ij->i", u, v)
+    return out
 
 
 def _accel_set(cfg: SearchConfig) -> FloatArray:

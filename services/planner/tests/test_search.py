@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from llmland_planner.regions import UnsafeRegion, from_obstacle, segments_hit_boxes
-from llmland_planner.search import Path, SearchConfig, penalty, plan, resample
+from llmland_planner.search import Path, SearchConfig, _Checker, penalty, plan, resample
 
 START = np.array([0.0, 0.0, 2.0])
 GOAL = np.array([8.0, 0.0, 1.5])
@@ -155,3 +157,29 @@ def test_a_start_inside_overlapping_keep_outs_has_a_way_out() -> None:
     outside_ball = np.linalg.norm(path.p - start, axis=1) > start_clearance_m(start, regions)
     assert not np.any(segments_hit_boxes(path.p[:-1][outside_ball[1:]], path.p[1:][outside_ball[1:]],
                                          np.array([r.lo for r in regions]), np.array([r.hi for r in regions])))
+
+
+@settings(max_examples=50, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_segments_leaving_a_clearance_ball_are_cut_at_its_surface(seed: int) -> None:
+    """The mixed segments (one end in a clearance ball) are checked only outside the ball: the
+    inner end moves to where the segment enters the nearest ball, the outer end stays."""
+    rng = np.random.default_rng(seed)
+    start, goal = rng.uniform(-3.0, 3.0, 3), rng.uniform(-3.0, 3.0, 3)
+    cfg = SearchConfig(clearance_radius_m=float(rng.uniform(0.3, 1.5)))
+    chk = _Checker([], start, goal, cfg)
+    a = np.concatenate([start + rng.normal(0.0, 0.8, (20, 3)), goal + rng.normal(0.0, 0.8, (20, 3))])
+    b = a + rng.normal(0.0, 1.0, a.shape)
+    ea, eb = chk.exempt(a), chk.exempt(b)
+    ca, cb = chk._clip_to_balls(a, b, ea, eb)
+    r = cfg.clearance_radius_m
+    for i in range(len(a)):
+        if ea[i] == eb[i]:  # both in or both out: untouched
+            assert np.array_equal(ca[i], a[i]) and np.array_equal(cb[i], b[i])
+            continue
+        inner, outer, moved, kept = (a[i], b[i], ca[i], cb[i]) if ea[i] else (b[i], a[i], cb[i], ca[i])
+        assert np.array_equal(kept, outer)
+        centre = chk.centers[np.argmin(np.linalg.norm(chk.centers - inner, axis=1))]
+        # on the segment, on the sphere (or at the inner end when the outer end is outside only by rounding)
+        assert np.linalg.norm(np.cross(moved - outer, inner - outer)) < 1e-9
+        assert abs(np.linalg.norm(moved - centre) - r) < 1e-6 or np.allclose(moved, inner)
