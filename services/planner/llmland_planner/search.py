@@ -46,6 +46,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
 from llmland_planner.regions import UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
+from llmland_planner.separation import separated
 
 __all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
 
@@ -256,11 +257,16 @@ def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
          regions: list[UnsafeRegion], config: SearchConfig | None = None) -> Path | None:
     """Search a path from ``(start_p, start_v)`` (each ``(3,)``) to rest at ``goal_p (3,)``.
 
-    Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``.
+    Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``, or at once
+    when :func:`~.separation.separated` shows that none exists.
     """
     cfg = config or SearchConfig()
-    p0, v0 = np.asarray(start_p, dtype=float), np.asarray(start_v, dtype=float)
-    return _Search(p0, v0, np.asarray(goal_p, dtype=float), regions, cfg).run()
+    p0, v0, goal = (np.asarray(x, dtype=float) for x in (start_p, start_v, goal_p))
+    if separated(p0, goal, regions, z_floor_m=cfg.z_floor_m, z_ceiling_m=cfg.workspace_hi[2],
+                 clearance_radius_m=cfg.clearance_radius_m, grid_res_m=cfg.grid_res_m, margin_m=cfg.grid_margin_m):
+        log.info("search: no path can exist (start and goal separated by walls in plan view)")
+        return None
+    return _Search(p0, v0, goal, regions, cfg).run()
 
 
 class _Search:
