@@ -8,6 +8,10 @@ car roof seen from above) takes the height of the ground seen next to it, while 
 (slopes below ``max_slope``) keeps its own height. Unobserved cells fall back to the target's
 ground height. Points above ``g + tolerance`` are obstacle points (``llmland_schemas.depth``).
 
+:meth:`GroundMap.reach_floor` turns the estimate into the hard limit's floor: the highest ground
+within reach of each point, so that paths over a mound stay above the heads of people standing on
+it (:class:`ReachFloor`).
+
 Points are staged (:meth:`GroundMap.stage`, from any thread, in any order) and folded in by
 :meth:`GroundMap.commit` in stamp order; :meth:`GroundMap.height` reads only committed points,
 so what a frame's blobs look like never depends on the order two cameras' frames arrived in.
@@ -15,7 +19,9 @@ so what a frame's blobs look like never depends on the order two cameras' frames
 
 from __future__ import annotations
 
+import math
 import threading
+from dataclasses import dataclass
 
 import numpy as np
 from llmland_schemas.arrays import FloatArray
@@ -27,6 +33,38 @@ HALF_SIZE_M = 40.0
 WINDOW_M = 3.0
 #: steepest terrain the estimate follows (rise per run); steeper rises are obstacles
 MAX_SLOPE = 0.25
+
+
+@dataclass(frozen=True)
+class ReachFloor:
+    """The lowest altitude (m) out of everyone's reach over a plan-view grid, frozen at one instant.
+
+    ``top[i, j]``: the highest ground (m) any person whose body axis is within the reach radius of a
+    point of cell ``(i, j)`` can stand on, estimate error included (:meth:`GroundMap.reach_floor`);
+    the floor is ``top + clearance_m``. Outside the grid: ``outside_m + clearance_m``.
+    """
+
+    origin: FloatArray  # (2,) m, the grid's corner
+    cell_m: float
+    top: FloatArray  # (n, n) m
+    outside_m: float
+    clearance_m: float
+
+    @property
+    def lowest_m(self) -> float:
+        """The floor's minimum (m) anywhere."""
+        return min(float(self.top.min()), self.outside_m) + self.clearance_m
+
+    def __call__(self, xy: FloatArray) -> FloatArray:
+        """Floor (m) at plan-view points ``(..., 2)`` → ``(...)``."""
+        p = np.asarray(xy, dtype=float)
+        i = np.floor((p[..., 0] - self.origin[0]) / self.cell_m).astype(np.int64)
+        j = np.floor((p[..., 1] - self.origin[1]) / self.cell_m).astype(np.int64)
+        n = self.top.shape[0]
+        inside = (i >= 0) & (i < n) & (j >= 0) & (j < n)
+        out = np.full(p.shape[:-1], self.outside_m)
+        out[inside] = self.top[i[inside], j[inside]]
+        return out + self.clearance_m
 
 
 class GroundMap:
@@ -44,6 +82,8 @@ class GroundMap:
         dist = np.hypot(ii, jj) * cell_m
         self._footprint = dist <= window_m + 1e-9
         self._cone = -max_slope * dist  # erosion subtracts the structure: min(z + slope · d)
+        self._max_slope = max_slope
+        self._floor_cache: tuple[FloatArray, tuple[float, float], ReachFloor] | None = None
         self._ground = np.full((self.n, self.n), self.centre[2])
         self._dirty = False
         self._staged: dict[tuple[float, str], FloatArray] = {}
@@ -89,6 +129,32 @@ class GroundMap:
         env = ndimage.grey_erosion(z, footprint=self._footprint, structure=self._cone, mode="nearest")
         self._ground = np.where(env < 1e5, env, self.centre[2])
         self._dirty = False
+
+    def reach_floor(self, reach_m: float, clearance_m: float) -> ReachFloor:
+        """The floor (m) ``clearance_m`` above the highest ground within ``reach_m`` horizontally.
+
+        A cell's estimate can be below the true ground anywhere in it by the terrain's rise across
+        the cell (the lowest point seen, and the cone's slope, :data:`MAX_SLOPE`): at most
+        ``max_slope · cell · √2``, added here. The dilation takes every cell whose centre lies
+        within ``reach_m + cell · √2`` of a cell's centre (the point and the person anywhere in
+        their cells). Cells never observed are taken at the target's ground (an assumption: the
+        cameras look where the vehicle flies). The arrays are never changed in place, so the
+        snapshot is safe to read on another thread.
+        """
+        with self._lock:
+            self._refresh()
+            ground = self._ground
+        cached = self._floor_cache
+        if cached is not None and cached[0] is ground and cached[1] == (reach_m, clearance_m):
+            return cached[2]
+        r = int(math.ceil(reach_m / self.cell + math.sqrt(2.0)))
+        ii, jj = np.mgrid[-r:r + 1, -r:r + 1]
+        footprint = np.hypot(ii, jj) * self.cell <= reach_m + self.cell * math.sqrt(2.0) + 1e-9
+        error = self._max_slope * self.cell * math.sqrt(2.0)
+        top = ndimage.grey_dilation(ground, footprint=footprint, mode="nearest") + error
+        floor = ReachFloor(self.origin.copy(), self.cell, top, float(self.centre[2]) + error, clearance_m)
+        self._floor_cache = (ground, (reach_m, clearance_m), floor)
+        return floor
 
     def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
         """Ground height (m) under world points (vectorised over equal shapes), committed points only."""

@@ -32,6 +32,7 @@ import numpy as np
 from llmland_schemas.arrays import FloatArray
 
 from .descent import DescentProfile
+from .ground import ReachFloor
 from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
 from .regions import UnsafeRegion
 from .settings import PlannerSettings
@@ -67,6 +68,13 @@ class Surroundings:
     #: age (s) of the newest downward frame the coverage stands on: untracked people were outside
     #: the coverage then, and have been walking since
     coverage_age_s: float = 0.0
+    #: the hard limit's floor (m) at plan-view points ``(..., 2)``: out of everyone's reach over the
+    #: terrain (:class:`~.ground.ReachFloor`); None: flat ground, ``REACH_CEILING_M`` over the target
+    reach_floor: ReachFloor | None = None
+
+    def floor_at(self, xy: FloatArray) -> float:
+        """The reach floor (m) at one plan-view point ``(2,)``, or -inf when none is given."""
+        return -math.inf if self.reach_floor is None else float(self.reach_floor(np.asarray(xy, dtype=float)[:2]))
 
     @cached_property
     def coverage_m(self) -> float:
@@ -175,7 +183,8 @@ class LandingLogic:
         s = self.settings
         tgt = np.asarray(self.target_m, dtype=float)
         pos, vel = np.asarray(pos_m, dtype=float), np.asarray(vel_mps, dtype=float)
-        hover = np.array([tgt[0], tgt[1], hover_altitude(tgt, around.regions, s)])
+        # never below the reach floor over the target (terrain rising around it)
+        hover = np.array([tgt[0], tgt[1], max(hover_altitude(tgt, around.regions, s), around.floor_at(tgt))])
         height = float(pos[2] - tgt[2])
         horiz = float(np.linalg.norm(pos[:2] - tgt[:2]))
 
@@ -191,10 +200,11 @@ class LandingLogic:
                 return self.phase, hover
             return self.phase, tgt
         if not self.climbed:  # take-off climb: above everyone's reach before flying anywhere
-            if pos[2] >= tgt[2] + s.cruise_altitude_m - ARRIVE_HEIGHT_TOL_M:
+            climb_z = max(tgt[2] + s.cruise_altitude_m, around.floor_at(pos) + ARRIVE_HEIGHT_TOL_M)
+            if pos[2] >= climb_z - ARRIVE_HEIGHT_TOL_M:
                 self.climbed = True
             else:
-                return self.phase, np.array([pos[0], pos[1], tgt[2] + s.cruise_altitude_m])
+                return self.phase, np.array([pos[0], pos[1], climb_z])
         arrived = (horiz < s.align_radius_m and abs(pos[2] - hover[2]) < ARRIVE_HEIGHT_TOL_M
                    and float(np.linalg.norm(vel)) < ARRIVE_SPEED_MPS)
         if self.phase in (Phase.APPROACH, Phase.CLIMB_OUT) and arrived:

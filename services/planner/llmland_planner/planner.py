@@ -140,7 +140,7 @@ class Planner:
 
         age = 0.0 if w.last_down_stamp_s is None else max(0.0, t - w.last_down_stamp_s)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration),
-                            coverage_age_s=age)
+                            coverage_age_s=age, reach_floor=w.reach_floor(REACH_CEILING_M + REACH_FLOOR_MARGIN_M))
 
     def tick(self, state: VehicleState) -> TickOutput:
         t_tick = time.perf_counter()
@@ -165,7 +165,8 @@ class Planner:
             ref_pos, ref_vel = self._vertical_reference(phase, pos, vel, goal)
             self.paths.active = None
         else:
-            if self.paths.maybe_replan(t, pos, vel, goal, regions, self._reach_floor(pos)):
+            floor_fn = around.reach_floor if self.landing.climbed else None
+            if self.paths.maybe_replan(t, pos, vel, goal, regions, self._reach_floor(pos, around), floor_fn):
                 snapshot = self._snapshot(t, regions, None)
             ref_pos, ref_vel, halfspaces = self.paths.reference(pos, hold=hold)
         if snapshot is None and (phase != self._snap_phase or t - self._snap_t >= SNAPSHOT_PERIOD_S):
@@ -177,8 +178,8 @@ class Planner:
         x0 = np.concatenate([pos, vel, euler])
         if phase in (Phase.DESCEND, Phase.CLIMB_OUT):
             z_floor = float(self.landing.target_m[2]) - GROUND_FLOOR_MARGIN_M  # the ground, not the goal
-        else:  # approaching and holding: above everyone's reach (hard_limit.REACH_CEILING_M)
-            z_floor = self._reach_floor(pos)
+        else:  # approaching and holding: above everyone's reach, along the reference too
+            z_floor = self._reach_floor(pos, around, ref_pos)
         yaw = float(state.euler_rpy_rad[2])
         yaw_ref = yaw + math.remainder(self._yaw_ref - yaw, 2.0 * math.pi)  # no unwinding through ±π
         res = self.mpc.solve(x0, ref_pos, ref_vel, yaw_ref, halfspaces, z_floor_m=z_floor)
@@ -214,12 +215,29 @@ class Planner:
         log.info("t=%.1f %s: hard-limit margin %.2f m (%s), landing disc %s, %d possible people", t, phase.value,
                  gate.clearance.margin_m, binding, "clear" if gate.disc_clear else "blocked", len(around.people))
 
-    def _reach_floor(self, pos: FloatArray) -> float:
-        """Lowest altitude (m) for paths and holds outside the final descent: above everyone's
-        reach, or where the vehicle is when it is still climbing there."""
+    def _reach_floor(self, pos: FloatArray, around: Surroundings, ref_pos: FloatArray | None = None) -> float:
+        """Lowest altitude (m) for paths and holds outside the final descent: above everyone's reach
+        (the reach floor over the terrain, :meth:`.world_model.WorldModel.reach_floor`) at the
+        vehicle and along ``ref_pos (N+1, 3)`` if given; for paths (no ``ref_pos``), the floor's
+        minimum, the search reading the floor itself point by point. During the take-off climb
+        (and only then) where the vehicle is, below it.
+
+        Once the vehicle has climbed, the floor never follows it down: a vehicle that sagged under
+        the floor (tracking error against the soft MPC floor) got a floor under itself for its next
+        paths and holds, whose tracking errors lowered it again. In Exp 2 at 36cb619 four llm-land
+        approaches sank this way to 2.68–2.85 m, within a person's reach, 7–8 m from the target
+        (open_field seed 4: 3.19 → 2.68 m in 2.4 s)."""
         assert self.landing is not None
-        floor = float(self.landing.target_m[2]) + REACH_CEILING_M + REACH_FLOOR_MARGIN_M
-        return min(floor, float(pos[2]) - REACH_FLOOR_MARGIN_M)
+        flat = float(self.landing.target_m[2]) + REACH_CEILING_M + REACH_FLOOR_MARGIN_M
+        floor_fn = around.reach_floor
+        here = flat if floor_fn is None else float(floor_fn(pos[:2]))
+        if not self.landing.climbed:
+            return min(here, float(pos[2]) - REACH_FLOOR_MARGIN_M)
+        if floor_fn is None:
+            return flat
+        if ref_pos is None:
+            return floor_fn.lowest_m
+        return max(here, float(np.max(floor_fn(np.asarray(ref_pos)[:, :2]))))
 
     def _vertical_reference(self, phase: Phase, pos: FloatArray, vel: FloatArray,
                             goal: FloatArray) -> tuple[FloatArray, FloatArray]:

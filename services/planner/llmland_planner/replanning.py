@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -120,10 +121,12 @@ class Replanner:
         self._last_replan_s = -1e9
 
     def maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
-                     regions: list[UnsafeRegion], z_floor_m: float) -> bool:
+                     regions: list[UnsafeRegion], z_floor_m: float,
+                     floor_fn: Callable[[FloatArray], FloatArray] | None = None) -> bool:
         """Adopt a finished search when it is due, start a new one when needed; True if adopted.
 
-        ``z_floor_m``: the lowest altitude (m) a new path may take.
+        ``z_floor_m``: the lowest altitude (m) a new path may take; ``floor_fn``: where the floor
+        varies (the terrain), the floor at plan-view points ``(..., 2)``, ``z_floor_m`` its minimum.
         """
         adopted = self._adopt_due(t, regions)
         need = (
@@ -142,7 +145,8 @@ class Replanner:
             self._last_replan_s = t
             self._job = _Job(t0_s=t, goal_m=goal.copy())
             threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions),
-                                                        z_floor_m, self.search_budget_scale()), daemon=True).start()
+                                                        z_floor_m, self.search_budget_scale(), floor_fn),
+                             daemon=True).start()
         return adopted
 
     def _adopt_due(self, t: float, regions: list[UnsafeRegion]) -> bool:
@@ -180,13 +184,14 @@ class Replanner:
         return 2 ** min(self._failed_in_row, SEARCH_BUDGET_DOUBLINGS)
 
     def _search(self, job: _Job, pos: FloatArray, vel: FloatArray, regions: list[UnsafeRegion],
-                z_floor_m: float, budget_scale: int = 1) -> None:
+                z_floor_m: float, budget_scale: int = 1,
+                floor_fn: Callable[[FloatArray], FloatArray] | None = None) -> None:
         t0 = time.perf_counter()
         try:
             # Clearance region at the start (paper App.): if regions have grown over the
             # vehicle, let the path leave them; the heuristic's penalty φ pushes it out.
             clearance = max(self.search_cfg.clearance_radius_m, start_clearance_m(pos, regions))
-            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m,
+            cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m, floor_fn=floor_fn,
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)
             path = plan(pos, vel, job.goal_m, regions, cfg)

@@ -4,9 +4,9 @@ State ``(p, v)`` (m, m/s, world frame). Each primitive holds ``a`` from a per-ax
 (``xy_levels`` × ``xy_levels`` × ``z_levels`` values in ``[-a_max, a_max]``) for ``tau_s``;
 its cost is ``‖a‖²·τ + ρ·τ``. Children whose speed exceeds ``v_max`` or whose sampled
 trajectory (points + slab tests between consecutive samples) touches an unsafe box, leaves
-the workspace box or dips below ``z_floor_m`` are dropped. Within ``shot_radius_m`` of the
-goal every expansion tries an analytic cubic "one-shot" to ``(goal, v = 0)``; the search ends
-when one is feasible.
+the workspace box or dips below the floor (``z_floor_m``, or ``floor_fn`` where it varies) are
+dropped. Within ``shot_radius_m`` of the goal every expansion tries an analytic cubic
+"one-shot" to ``(goal, v = 0)``; the search ends when one is feasible.
 
 Heuristic ``h̃(p, v) = w · (h₀(p, v) + λ·φ(p))``. ``h₀ = ρ · T_lb`` with ``T_lb`` the larger of
 ``d_free(p) / v_max`` and the per-axis bang-bang minimum time under ``|a_d| ≤ a_max``,
@@ -36,6 +36,7 @@ import heapq
 import itertools
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,6 +70,9 @@ class SearchConfig:
     heuristic_weight: float = 3.0
     clearance_radius_m: float = 0.5
     z_floor_m: float = 0.2
+    #: the floor (m) at plan-view points ``(..., 2)`` where it varies (the terrain): it replaces
+    #: ``z_floor_m`` in the checks, and ``z_floor_m`` must then be its minimum
+    floor_fn: Callable[[FloatArray], FloatArray] | None = None
     workspace_lo: tuple[float, float, float] = (-100.0, -100.0, -1.0)
     workspace_hi: tuple[float, float, float] = (100.0, 100.0, 50.0)
     pos_res_m: float = 0.2
@@ -200,7 +204,8 @@ class _Checker:
         m, s, _ = pts.shape
         ex = self.exempt(pts)
         good = np.all((pts >= self.ws_lo) & (pts <= self.ws_hi), axis=(1, 2))
-        good &= np.all(ex | (pts[..., 2] >= self.cfg.z_floor_m), axis=1)
+        floor = self.cfg.z_floor_m if self.cfg.floor_fn is None else self.cfg.floor_fn(pts[..., :2])
+        good &= np.all(ex | (pts[..., 2] >= floor), axis=1)
         flat = pts.reshape(-1, 3)
         near = np.all((self.lo <= flat.max(axis=0)) & (self.hi >= flat.min(axis=0)), axis=1)
         if not np.any(near):

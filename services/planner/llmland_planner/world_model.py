@@ -30,12 +30,12 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from llmland_schemas import SEMANTIC_METHODS, CameraIntrinsics, SafetySpec, SafetySpecMessage
+from llmland_schemas import PERSON_HARD_LIMIT_M, SEMANTIC_METHODS, CameraIntrinsics, SafetySpec, SafetySpecMessage
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.depth import Blob, backproject, find_blobs
 from llmland_schemas.frames import CameraFrame
 
-from .ground import GroundMap
+from .ground import GroundMap, ReachFloor
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
 from .look_ahead import view_half_azimuth_rad
 from .regions import OVERFLY_CLEARANCE_M, UNSEEN_TOP, UnsafeRegion, from_obstacle
@@ -366,6 +366,11 @@ class WorldModel:
             return []
         return [0.5 * (v.track.lo_m[:2] + v.track.hi_m[:2]) for v in self.views(t_s)
                 if self.spec_for(v.track, t_s).source == "fallback"]
+
+    def reach_floor(self, clearance_m: float) -> ReachFloor | None:
+        """``clearance_m`` above the highest ground on which anyone within the hard limit (1 m)
+        horizontally can stand (:meth:`.ground.GroundMap.reach_floor`); None without a target."""
+        return None if self.ground is None else self.ground.reach_floor(PERSON_HARD_LIMIT_M, clearance_m)
 
     def people(self, t_s: float) -> list[PersonHypothesis]:
         """Every live possible person, with the age of their last observation (the hard limit's

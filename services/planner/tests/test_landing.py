@@ -3,7 +3,8 @@ climb out when a reachable set is about to touch above the commit height, touchd
 
 import numpy as np
 import pytest
-from llmland_planner.hard_limit import PersonHypothesis, commit_clearance
+from llmland_planner.ground import ReachFloor
+from llmland_planner.hard_limit import REACH_CEILING_M, PersonHypothesis, commit_clearance
 from llmland_planner.landing import LandingLogic, Phase, Surroundings, disc_clear, hover_altitude
 from llmland_planner.regions import UnsafeRegion
 from llmland_planner.settings import PlannerSettings
@@ -142,3 +143,22 @@ def test_a_person_lost_inside_the_coverage_during_the_descent_makes_it_climb_out
     phase, _ = logic.update(np.array([0.0, 0.0, 2.5]), np.array([0.0, 0.0, -2.0]), 0.5,
                             _around([_person(2.5, age=1.0)], coverage_m=1.0))
     assert phase == Phase.CLIMB_OUT
+
+
+def _raised_floor(ground_m: float) -> ReachFloor:
+    """The reach floor over ground ``ground_m`` above the target everywhere."""
+    return ReachFloor(np.array([-40.0, -40.0]), 1.0, np.full((80, 80), ground_m), ground_m, REACH_CEILING_M + 0.1)
+
+
+def test_the_take_off_climb_and_the_hover_stay_above_the_reach_floor() -> None:
+    """On a mound the cruise altitude over the target is within reach: the take-off climbs above the
+    floor under the vehicle before it counts as climbed, and the hover point rises over the floor."""
+    logic = LandingLogic(TARGET, S)
+    around = Surroundings([], [], 7.0, lambda _d: [], reach_floor=_raised_floor(0.9))
+    floor = REACH_CEILING_M + 0.1 + 0.9
+    phase, goal = logic.update(np.array([8.0, 0.0, 2.0]), STILL, 0.0, around)
+    assert not logic.climbed and goal[2] >= floor
+    logic.update(np.array([8.0, 0.0, S.cruise_altitude_m]), STILL, 1.0, around)
+    assert not logic.climbed  # at the cruise altitude, still within reach of the mound
+    phase, goal = logic.update(np.array([8.0, 0.0, floor + 0.05]), STILL, 2.0, around)
+    assert logic.climbed and np.allclose(goal, [0.0, 0.0, floor])

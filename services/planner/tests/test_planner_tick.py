@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 import pytest
-from llmland_planner.planner import YAW_LOOK_AHEAD_M, Planner
+from llmland_planner.hard_limit import REACH_CEILING_M
+from llmland_planner.planner import REACH_FLOOR_MARGIN_M, YAW_LOOK_AHEAD_M, Planner
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import MissionGoal, VehicleState
 
@@ -22,6 +23,33 @@ def test_mpc_floor_is_the_ground_not_the_raised_hover_goal():
     assert out.mpc is not None and out.mpc.ok
     assert out.mpc.max_slack < 0.05
     assert np.all(np.abs(out.body_rates_rps[:2]) < 5.0)
+
+
+def test_the_reach_floor_follows_the_vehicle_down_only_while_it_takes_off(monkeypatch):
+    """Paths and holds outside the final descent stay above everyone's reach once the vehicle has
+    climbed there, wherever it has sagged to: the floor followed the vehicle down (Exp 2 at 36cb619,
+    open_field seed 4: 3.19 -> 2.68 m during the approach, 7 m from the target)."""
+    import llmland_planner.replanning as planner_module
+
+    floors: list[float] = []
+    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg: floors.append(cfg.z_floor_m))
+    pl = Planner()
+    mpc_floors: list[float] = []
+    solve = pl.mpc.solve
+    monkeypatch.setattr(pl.mpc, "solve", lambda *a, **kw: (mpc_floors.append(kw["z_floor_m"]), solve(*a, **kw))[1])
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 2.0), target_m=(0, 0, 0),
+                         clock="lockstep"))
+    pl.tick(_state((0.0, -9.0, 2.0)))  # taking off from 2 m: the floor is under the vehicle
+    assert pl.landing is not None and not pl.landing.climbed
+    assert floors[-1] < 2.0 and mpc_floors[-1] < 2.0
+    pl.landing.climbed = True
+    flat = REACH_CEILING_M + REACH_FLOOR_MARGIN_M  # over flat ground at the target's height
+    for k, z in enumerate((3.05, 2.9, 2.7)):  # sagging after the climb
+        pl.tick(_state((0.0, -9.0, z), t=0.1 * (k + 1), seq=k + 1))
+        assert pl.paths._job is not None
+        pl.paths._job.done.wait()
+        assert floors[-1] >= flat and mpc_floors[-1] >= flat
+    assert len(floors) == 4
 
 
 def test_yaw_reference_takes_the_short_way_through_pi():
