@@ -151,6 +151,19 @@ def boxes_array(regions: list[UnsafeRegion]) -> tuple[FloatArray, FloatArray]:
     return np.stack([r.lo for r in regions]), np.stack([r.hi for r in regions])
 
 
+def mark_cell_ranges(grid: BoolArray, first: ArrayLike, last: ArrayLike) -> None:
+    """Set ``grid[i0:i1 + 1, j0:j1 + 1]`` for each inclusive cell range ``first[k] = (i0, j0)``,
+    ``last[k] = (i1, j1)`` (``(K, 2)`` ints), clipped to the grid; a range wholly outside it marks
+    nothing. Plain slicing would read a negative end from the far side (a box 20 m west of a
+    plan-view grid once marked most of it)."""
+    n = np.array(grid.shape[:2]) - 1
+    lo = np.maximum(np.asarray(first, dtype=np.int64).reshape(-1, 2), 0)
+    hi = np.minimum(np.asarray(last, dtype=np.int64).reshape(-1, 2), n)
+    for (i0, j0), (i1, j1) in zip(lo, hi, strict=True):
+        if i0 <= i1 and j0 <= j1:
+            grid[i0:i1 + 1, j0:j1 + 1] = True
+
+
 def segments_hit_boxes(a: ArrayLike, b: ArrayLike, lo: FloatArray, hi: FloatArray) -> BoolArray:
     """Vectorised slab test: ``a, b (S, 3)`` segments vs ``lo, hi (R, 3)`` boxes → bool ``(S, R)``.
 

@@ -24,7 +24,7 @@ import numpy as np
 from llmland_schemas.arrays import FloatArray
 from scipy import ndimage
 
-from .regions import UnsafeRegion, boxes_array
+from .regions import UnsafeRegion, boxes_array, mark_cell_ranges
 
 #: 8-connectivity of the plan-view grid
 _EIGHT_WAYS = np.ones((3, 3), dtype=bool)
@@ -48,13 +48,7 @@ def separated(start_m: FloatArray, goal_m: FloatArray, regions: list[UnsafeRegio
     # cell (i, j) is [origin + (i, j) * res, origin + (i + 1, j + 1) * res]: wholly inside a footprint
     first = np.ceil((lo - origin) / grid_res_m).astype(int)
     last = np.floor((hi - origin) / grid_res_m).astype(int) - 1
-    # clipped to the grid; a footprint wholly outside it blocks nothing (a negative slice end
-    # would count from the far side: a wall 20 m west of the grid once blocked most of it)
-    first = np.maximum(first, 0)
-    last = np.minimum(last, [nx - 1, ny - 1])
-    for (i0, j0), (i1, j1) in zip(first, last, strict=True):
-        if i0 <= i1 and j0 <= j1:
-            blocked[i0:i1 + 1, j0:j1 + 1] = True
+    mark_cell_ranges(blocked, first, last)
     corner_x = origin[0] + grid_res_m * np.arange(nx)
     corner_y = origin[1] + grid_res_m * np.arange(ny)
     for c in (start, goal):  # cells meeting a clearance disc are free
