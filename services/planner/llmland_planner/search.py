@@ -46,7 +46,13 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
-from llmland_planner.regions import UnsafeRegion, boxes_array, points_in_boxes, segments_hit_boxes
+from llmland_planner.regions import (
+    UnsafeRegion,
+    boxes_array,
+    mark_cell_ranges,
+    points_in_boxes,
+    segments_hit_boxes,
+)
 from llmland_planner.separation import separated
 
 __all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
@@ -141,13 +147,10 @@ class _FreeDistance:
                       int(np.ceil((top[1] - self.origin[1]) / res)) + 1)
         nx, ny = self.shape
         blocked = np.zeros(self.shape, dtype=bool)
-        ceiling = cfg.workspace_hi[2] - cfg.clearance_radius_m
-        for r in regions:
-            if r.hi[2] < ceiling:
-                continue  # can be flown over: free in plan view (the bound stays admissible)
-            i0, j0 = np.floor((r.lo[:2] - self.origin) / res).astype(int)
-            i1, j1 = np.ceil((r.hi[:2] - self.origin) / res).astype(int)
-            blocked[max(i0, 0):min(i1, nx - 1) + 1, max(j0, 0):min(j1, ny - 1) + 1] = True
+        lo, hi = boxes_array(regions)
+        tall = hi[:, 2] >= cfg.workspace_hi[2] - cfg.clearance_radius_m  # the rest can be flown over
+        mark_cell_ranges(blocked, np.floor((lo[tall, :2] - self.origin) / res),
+                         np.ceil((hi[tall, :2] - self.origin) / res))
         ii, jj = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
         centres = self.origin + res * np.stack([ii, jj], axis=-1)
         for c in (start[:2], goal[:2]):  # the clearance balls are free

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from llmland_planner.regions import UnsafeRegion, from_obstacle, segments_hit_boxes
-from llmland_planner.search import Path, SearchConfig, _Checker, penalty, plan, resample
+from llmland_planner.search import Path, SearchConfig, _Checker, _FreeDistance, penalty, plan, resample
 
 START = np.array([0.0, 0.0, 2.0])
 GOAL = np.array([8.0, 0.0, 1.5])
@@ -183,3 +183,15 @@ def test_segments_leaving_a_clearance_ball_are_cut_at_its_surface(seed: int) -> 
         # on the segment, on the sphere (or at the inner end when the outer end is outside only by rounding)
         assert np.linalg.norm(np.cross(moved - outer, inner - outer)) < 1e-9
         assert abs(np.linalg.norm(moved - centre) - r) < 1e-6 or np.allclose(moved, inner)
+
+
+@pytest.mark.parametrize("xy", [(-40.0, -2.0, -36.0, 6.0), (-2.0, -40.0, 6.0, -36.0), (40.0, -2.0, 44.0, 6.0)])
+def test_a_tall_region_wholly_outside_the_free_distance_grid_changes_no_distance(
+        xy: tuple[float, float, float, float]) -> None:
+    # the plan-view free distance (the heuristic's lower bound) once marked a band across its grid
+    # for a building wholly west or south of it: negative slice ends count from the far side
+    cfg = SearchConfig(workspace_hi=(100.0, 100.0, 10.0))
+    far = UnsafeRegion(np.array([xy[0], xy[1], -1.0]), np.array([xy[2], xy[3], 15.0]))
+    alone = _FreeDistance([], START, GOAL, cfg)
+    beside = _FreeDistance([far], START, GOAL, cfg)
+    np.testing.assert_array_equal(beside.dist, alone.dist)
