@@ -62,6 +62,9 @@ PREDICT_CAP_S = 1.0
 GATE_GROWTH_MPS = 1.5
 GATE_MAX_M = 5.0
 GATE_HEIGHT_ALIKE_M = 0.4
+#: An uncut side view of a still thing whose top is lower than the highest seen by more than this
+#: (m, depth noise) does not settle a top a view cut off (:meth:`ObstacleTracker._keep_still_top`).
+STILL_TOP_TOLERANCE_M = 0.1
 #: Sightings kept per track (the sim's 5 Hz forward + 5 Hz downward frames: ≈ 6 s, longer than
 #: a spec's measured latency here; an older spec falls back to the last-seen centroid).
 SIGHTINGS_KEPT = 64
@@ -291,15 +294,36 @@ class ObstacleTracker:
             a = self.velocity_alpha
             self._raw_velocity[track.track_id] = sample if previous is None else a * sample + (1.0 - a) * previous
         track.hits += 1
+        top_seen, top_cut = float(track.hi_m[2]), track.touches_top
         if source != "down":  # a downward view sees tops; a side view may cut them off
             track.touches_top = blob.touches_top
         track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
+        if not track.has_moved:
+            self._keep_still_top(track, top_seen, top_cut, source)
         track.last_seen_s = max(track.last_seen_s, stamp_s)
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
+
+    @staticmethod
+    def _keep_still_top(track: TrackedObstacle, top_seen_m: float, top_cut: bool, source: str) -> None:
+        """A thing that has never moved does not get shorter: its top stays the highest seen, and
+        a top a side view cut off stays unknown until a whole side view reaches it.
+
+        A view that cut a thing at height ``h`` proves it reaches ``h`` and perhaps beyond; a
+        later uncut view whose top is lower is partial (the thing at the image's edge, its crown
+        a separate blob, the downward camera seeing only what lies below the vehicle). Taken as
+        the truth, the keep-out over a tree flickered between its trunk's height and the crown's
+        unknown top, and paths planned over the short reading were dropped the next frame
+        (open_field seed 34 held at its start). The highest top is the cautious reading; a
+        moving track (a person who walked) keeps its latest bounds.
+        """
+        partial = track.hi_m[2] < top_seen_m - STILL_TOP_TOLERANCE_M
+        if source != "down" and top_cut and not track.touches_top and partial:
+            track.touches_top = True  # lower than where a view cut it: partial
+        track.hi_m[2] = max(float(track.hi_m[2]), top_seen_m)
 
     @staticmethod
     def _extend_rigid_path(track: TrackedObstacle, source: str, step_m: FloatArray) -> None:

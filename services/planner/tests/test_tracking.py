@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 from llmland_planner.tracking import ObstacleTracker
 from llmland_schemas.depth import Blob
@@ -220,3 +222,32 @@ def test_a_still_object_whose_bounds_jitter_back_and_forth_has_a_small_excursion
     xs = [2.0 + (0.15 if k % 2 else 0.0) + rng.uniform(-0.02, 0.02) for k in range(60)]
     (t,) = _walk(xs).tracks()
     assert t.rigid_excursion_m < 0.25
+
+
+def _tree_view(top_m: float, cut: bool) -> Blob:
+    b = blob(5.0, 0.0, half_m=1.5, height_m=top_m)
+    return dataclasses.replace(b, touches_top=cut)
+
+
+def test_a_still_thing_keeps_the_highest_top_and_an_unknown_top_stays_unknown() -> None:
+    """A partial view of a tree (its trunk at the image's edge) read its top as 2 m after a view
+    that cut it at 5 m; the keep-out flickered between the two and paths over the short reading
+    were dropped the next frame (open_field seed 34 held at its start)."""
+    tracker = ObstacleTracker()
+    tracker.update([_tree_view(5.0, cut=True)], 0.0, source="front")
+    (track,) = tracker.update([_tree_view(2.0, cut=False)], DT_S, source="front")
+    assert track.hi_m[2] == 5.0 and track.touches_top
+    # a whole view that reaches the top seen settles it
+    (track,) = tracker.update([_tree_view(5.1, cut=False)], 2 * DT_S, source="front")
+    assert track.hi_m[2] == 5.1 and not track.touches_top
+    # and a lower partial view after it changes neither
+    (track,) = tracker.update([_tree_view(3.0, cut=False)], 3 * DT_S, source="front")
+    assert track.hi_m[2] == 5.1 and not track.touches_top
+
+
+def test_a_thing_that_moved_keeps_its_latest_top() -> None:
+    tracker = ObstacleTracker()
+    (track,) = tracker.update([_tree_view(1.8, cut=False)], 0.0, source="front")
+    track.has_moved = True
+    (track,) = tracker.update([_tree_view(1.2, cut=False)], DT_S, source="front")  # crouching
+    assert track.hi_m[2] == 1.2
