@@ -17,7 +17,6 @@ corridors' half-spaces for the MPC).
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
@@ -29,8 +28,8 @@ from llmland_schemas.arrays import FloatArray
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .mpc import Halfspaces
 from .path import Path, resample
-from .regions import UNSEEN_TOP, UnsafeRegion, escape_distance_m
-from .search import SearchConfig, crosses_regions, first_crossing, plan
+from .regions import UNSEEN_TOP, UnsafeRegion, boxes_array, escape_distance_m, segments_hit_boxes
+from .search import SearchConfig, plan
 from .settings import PlannerSettings
 
 log = logging.getLogger(__name__)
@@ -45,12 +44,6 @@ WORKSPACE_HALF_XY_M = 100.0
 GOAL_MOVED_REPLAN_M = 0.3
 #: Inside a region at the start, the start clearance reaches this far (m) beyond its depth.
 START_CLEARANCE_MARGIN_M = 0.3
-#: A plan whose path crosses a region this close ahead (m along the path) is dropped at once and
-#: the vehicle holds; one that crosses farther ahead is kept while new searches run. At
-#: ``v_max`` 2 m/s and 2.5 m/s² the vehicle stops within 0.8 m (+ 0.04 m in one 20 ms tick),
-#: so it halts ≥ 1 m short of where the path would enter the region as perceived now; the
-#: region is the keep-out, buffer included.
-HOLD_BEFORE_CROSSING_M = 2.0
 #: The nearest path point is looked for among this many points past the last progress.
 PROGRESS_WINDOW_POINTS = 40
 #: Sim times closer than this (s) are the same instant.
@@ -65,16 +58,12 @@ class ActivePlan:
     made_at_s: float
     search_ms: float
     progress_idx: int = 0
-    #: radius (m) of the start clearance ball the path was searched with
-    start_ball_m: float = 0.0
 
 
 @dataclass
 class _Job:
     t0_s: float
     goal_m: FloatArray
-    #: at the largest budget with no plan to follow: fall back to a grid detour
-    grid_fallback: bool = False
     wall_s: float = 0.0
     result: ActivePlan | None = None
     done: threading.Event = field(default_factory=threading.Event)
@@ -139,20 +128,13 @@ class Replanner:
         ``z_floor_m``: the lowest altitude (m) a new path may take; ``floor_fn``: where the floor
         varies (the terrain), the floor at plan-view points ``(..., 2)``, ``z_floor_m`` its minimum.
         """
-        adopted = self._adopt_due(t)
-        ahead_m = self.crossing_ahead_m(regions)
-        if self.active is not None and ahead_m < HOLD_BEFORE_CROSSING_M:
-            crossed = [f"{r.label or '?'} {r.obj_id}" for r in regions
-                       if crosses_regions(self.active.path.p, [r], self.active.start_ball_m)]
-            log.info("t=%.1f s: the plan of t=%.1f s crosses %s %.1f m ahead: hold", t, self.active.made_at_s,
-                     ", ".join(crossed) or "a region", ahead_m)
-            self.active = None  # never keep following a path into a region: hold instead
+        adopted = self._adopt_due(t, regions)
         need = (
             self.force_replan
             or self.active is None
             or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
             or t - self._last_replan_s >= self.settings.replan_period_s
-            or math.isfinite(ahead_m)
+            or self.path_blocked(self.active.path, regions)
         )
         # at the full budget, failures are retried once per replan period, not back to back
         # (each costs ~16× a search: in lockstep the sim waits for it)
@@ -161,15 +143,13 @@ class Replanner:
         if need and self._job is None and not backing_off:
             self.force_replan = False
             self._last_replan_s = t
-            # the grid detour starts at rest: only when there is no plan to follow (holding)
-            fallback = self.active is None and self.search_budget_scale() >= 2 ** SEARCH_BUDGET_DOUBLINGS
-            self._job = _Job(t0_s=t, goal_m=goal.copy(), grid_fallback=fallback)
+            self._job = _Job(t0_s=t, goal_m=goal.copy())
             threading.Thread(target=self._search, args=(self._job, pos.copy(), vel.copy(), list(regions),
                                                         z_floor_m, self.search_budget_scale(), floor_fn),
                              daemon=True).start()
         return adopted
 
-    def _adopt_due(self, t: float) -> bool:
+    def _adopt_due(self, t: float, regions: list[UnsafeRegion]) -> bool:
         job = self._job
         if job is None:
             return False
@@ -188,6 +168,8 @@ class Replanner:
             return True
         self.failed_searches += 1
         self._failed_in_row += 1
+        if self.active is not None and self.path_blocked(self.active.path, regions):
+            self.active = None  # never keep following a path into a region: hold instead
         return False
 
     def search_budget_scale(self) -> int:
@@ -212,35 +194,25 @@ class Replanner:
             cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m, floor_fn=floor_fn,
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)
-            # at the largest budget, holding, a failed search falls back to a plan-view grid
-            # detour (checked like any searched path, :mod:`.grid_detour`): a narrow way round
-            # is found in milliseconds where the 6-D search floods it
-            path = plan(pos, vel, job.goal_m, regions, cfg, grid_fallback=job.grid_fallback)
+            path = plan(pos, vel, job.goal_m, regions, cfg)
             if path is None:
                 log.info("no path at t=%.1f s from %s to %s (floor %.1f m): %s", job.t0_s, np.round(pos, 1),
                          np.round(job.goal_m, 1), z_floor_m, where_blocked(pos, job.goal_m, regions))
             else:
                 cors = corridors_for_path(path, regions, max_halfspaces=self.settings.max_halfspaces)
-                job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0),
-                                        start_ball_m=clearance)
+                job.result = ActivePlan(path, cors, job.goal_m, job.t0_s, 1e3 * (time.perf_counter() - t0))
         except Exception:  # a search bug must not stop the control loop
             log.exception("path search failed")
         job.wall_s = time.perf_counter() - t0
         job.done.set()
 
-    def crossing_ahead_m(self, regions: list[UnsafeRegion]) -> float:
-        """Distance (m, along the active path from the vehicle's progress) to where the path
-        first enters a region (:func:`~.search.first_crossing`, the way out of a region the
-        path began in waived); inf without a plan or a crossing ahead, 0 if it is here."""
-        act = self.active
-        if act is None or not regions:
-            return math.inf
-        p = act.path.p
-        k = first_crossing(p, regions, act.start_ball_m, from_index=act.progress_idx - 1)
-        if k is None:
-            return math.inf
-        lo, hi = sorted((act.progress_idx, k))
-        return float(np.sum(np.linalg.norm(np.diff(p[lo:hi + 1], axis=0), axis=1))) if k > act.progress_idx else 0.0
+    @staticmethod
+    def path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
+        """Whether the path beyond its first segment crosses a region."""
+        if not regions or len(path.p) < 3:
+            return False  # the first segment starts in the start clearance: not checked
+        lo, hi = boxes_array(regions)
+        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
 
     def look_ahead_m(self, pos: FloatArray, distance_m: float) -> FloatArray | None:
         """The first point ``(3,)`` of the active path past the vehicle's progress that lies at
@@ -281,7 +253,6 @@ class Replanner:
             if float(np.max(a0 @ pos - b0)) > CORRIDOR_EXIT_M:
                 # Off the corridor (disturbance, held position, changed goal): corridor rows
                 # from here would only be slack; track the path without them and replan now.
-                log.debug("off the corridor by %.2f m: replan", float(np.max(a0 @ pos - b0)))
                 self.force_replan = True
                 hs = None
         return ref_p, ref_v, hs

@@ -42,9 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 from llmland_schemas.arrays import BoolArray, FloatArray
 from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from llmland_planner.grid_detour import eight_way_graph, grid_detour
 from llmland_planner.path import Path, cubic_to_rest, resample, sample_cubic, sample_primitive
 from llmland_planner.regions import (
     UnsafeRegion,
@@ -55,7 +55,7 @@ from llmland_planner.regions import (
 )
 from llmland_planner.separation import separated
 
-__all__ = ["Path", "SearchConfig", "crosses_regions", "first_crossing", "penalty", "plan", "resample"]
+__all__ = ["Path", "SearchConfig", "penalty", "plan", "resample"]
 
 log = logging.getLogger(__name__)
 
@@ -158,10 +158,20 @@ class _FreeDistance:
         self.dist = self._dijkstra(blocked)
 
     def _dijkstra(self, blocked: NDArray[np.bool_]) -> FloatArray:
-        ny = self.shape[1]
+        nx, ny = self.shape
+        idx = np.arange(nx * ny).reshape(nx, ny)
+        rows, cols, w = [], [], []
+        for di, dj in ((1, 0), (0, 1), (1, 1), (1, -1)):
+            a = idx[max(0, -di):nx - max(0, di), max(0, -dj):ny - max(0, dj)]
+            b = idx[max(0, di):nx - max(0, -di) or None, max(0, dj):ny - max(0, -dj) or None]
+            ok = ~blocked.ravel()[a.ravel()] & ~blocked.ravel()[b.ravel()]
+            rows.append(a.ravel()[ok])
+            cols.append(b.ravel()[ok])
+            w.append(np.full(int(ok.sum()), self.res * float(np.hypot(di, dj))))
+        graph = csr_matrix((np.concatenate(w), (np.concatenate(rows), np.concatenate(cols))), shape=(nx * ny,) * 2)
         gi, gj = self._cell(self.goal[None, :2])
-        d = dijkstra(eight_way_graph(blocked, self.res), directed=False, indices=int(gi[0] * ny + gj[0]))
-        return np.asarray(d, dtype=float).reshape(self.shape)
+        d = dijkstra(graph, directed=False, indices=int(gi[0] * ny + gj[0]))
+        return np.asarray(d, dtype=float).reshape(nx, ny)
 
     def _cell(self, xy: FloatArray) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         ij = np.round((xy - self.origin) / self.res).astype(np.int64)
@@ -239,50 +249,6 @@ class _Checker:
         return a, b
 
 
-def first_crossing(points: FloatArray, regions: list[UnsafeRegion], start_ball_m: float,
-                   from_index: int = 1) -> int | None:
-    """Index ``k ≥ max(1, from_index)`` of the first segment ``points[k] → points[k + 1]`` of the
-    polyline ``points (S, 3)`` (a path's samples) that touches a region, None if none does; the
-    first segment is never checked. A region that holds ``points[0]`` (the vehicle began inside it) is
-    waived on the way out, as the search's start clearance ball waived it:
-
-    - a static region holding the start is waived along the path's first run inside it (up to
-      the first sample outside); a re-entry counts. Perceived boxes jitter from frame to frame,
-      so a fixed ball would soon read the way out as blocked;
-    - a moving thing's region (``is_dynamic``) holding the start is waived only within
-      ``start_ball_m`` (m) of it, the ball the path was searched with;
-    - every other region counts everywhere."""
-    if not regions or len(points) < 3:
-        return None
-    lo, hi = boxes_array(regions)
-    inside = points_in_boxes(points, lo, hi)  # (S, R)
-    held = inside[0]
-    dynamic = np.array([r.is_dynamic for r in regions], dtype=bool)
-    hits = np.zeros(len(points) - 1, dtype=bool)
-    checked = ~held | (dynamic & (start_ball_m <= 0.0))
-    if np.any(checked):
-        hits[1:] |= segments_hit_boxes(points[1:-1], points[2:], lo[checked], hi[checked]).any(axis=1)
-    for j in np.flatnonzero(held & ~dynamic):
-        out = np.flatnonzero(~inside[:, j])
-        if out.size and out[0] < len(points) - 1:
-            hits[out[0]:] |= segments_hit_boxes(points[out[0]:-1], points[out[0] + 1:], lo[j:j + 1], hi[j:j + 1])[:, 0]
-    ball = [r for r, h, d in zip(regions, held, dynamic, strict=True) if h and d and start_ball_m > 0.0]
-    if ball:
-        cfg = SearchConfig(clearance_radius_m=start_ball_m, z_floor_m=-np.inf, workspace_lo=(-np.inf,) * 3,
-                           workspace_hi=(np.inf,) * 3)
-        segments = np.stack([points[:-1], points[1:]], axis=1)
-        hits[1:] |= ~_Checker(ball, points[0], points[0], cfg).ok(segments)[1:]
-    start = max(1, from_index)
-    first = np.flatnonzero(hits[start:])
-    return int(first[0]) + start if first.size else None
-
-
-def crosses_regions(points: FloatArray, regions: list[UnsafeRegion], start_ball_m: float) -> bool:
-    """Whether the polyline ``points (S, 3)`` touches a region beyond its first segment, read as
-    :func:`first_crossing` reads it."""
-    return first_crossing(points, regions, start_ball_m) is not None
-
-
 def _rowdot(u: FloatArray, v: FloatArray) -> FloatArray:
     """Row-wise dot products ``(K,)`` of ``(K, 3)`` arrays."""
     out: FloatArray = np.einsum("ij,ij->i", u, v)
@@ -296,14 +262,11 @@ def _accel_set(cfg: SearchConfig) -> FloatArray:
 
 
 def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
-         regions: list[UnsafeRegion], config: SearchConfig | None = None, *,
-         grid_fallback: bool = False) -> Path | None:
+         regions: list[UnsafeRegion], config: SearchConfig | None = None) -> Path | None:
     """Search a path from ``(start_p, start_v)`` (each ``(3,)``) to rest at ``goal_p (3,)``.
 
     Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``, or at once
-    when :func:`~.separation.separated` shows that none exists. ``grid_fallback``: when the
-    search gives up, try :func:`~.grid_detour.grid_detour` (a rest-to-rest plan-view detour,
-    checked by the same :class:`_Checker`) before returning ``None``.
+    when :func:`~.separation.separated` shows that none exists.
     """
     cfg = config or SearchConfig()
     p0, v0, goal = (np.asarray(x, dtype=float) for x in (start_p, start_v, goal_p))
@@ -311,14 +274,7 @@ def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
                  clearance_radius_m=cfg.clearance_radius_m, grid_res_m=cfg.grid_res_m, margin_m=cfg.grid_margin_m):
         log.info("search: no path can exist (start and goal separated by walls in plan view)")
         return None
-    search = _Search(p0, v0, goal, regions, cfg)
-    path = search.run()
-    if path is None and grid_fallback:
-        path = grid_detour(p0, goal, regions, search.chk.ok, z_floor_m=cfg.z_floor_m, v_max_mps=cfg.v_max_mps,
-                           a_max_mps2=cfg.a_max_mps2, rho=cfg.rho, res_m=cfg.grid_res_m,
-                           grid_margin_m=cfg.grid_margin_m, clearance_radius_m=cfg.clearance_radius_m,
-                           floor_fn=cfg.floor_fn)
-    return path
+    return _Search(p0, v0, goal, regions, cfg).run()
 
 
 class _Search:

@@ -62,9 +62,6 @@ PREDICT_CAP_S = 1.0
 GATE_GROWTH_MPS = 1.5
 GATE_MAX_M = 5.0
 GATE_HEIGHT_ALIKE_M = 0.4
-#: An uncut side view of a still thing whose top is lower than where a view cut it by more than
-#: this (m, depth noise) does not settle the unknown top (:meth:`ObstacleTracker._keep_cut_top`).
-STILL_TOP_TOLERANCE_M = 0.1
 #: Sightings kept per track (the sim's 5 Hz forward + 5 Hz downward frames: ≈ 6 s, longer than
 #: a spec's measured latency here; an older spec falls back to the last-seen centroid).
 SIGHTINGS_KEPT = 64
@@ -122,9 +119,6 @@ class TrackedObstacle:
     meta: dict[str, Any] = field(default_factory=dict)
     #: the last side view cut it at the top of the image: its top is unknown (at least ``hi_m[2]``)
     touches_top: bool = False
-    #: a still thing: the highest top (m) a side view cut it at, while no uncut side view has
-    #: reached it since (:meth:`ObstacleTracker._keep_cut_top`); None otherwise
-    cut_top_m: float | None = None
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
@@ -275,8 +269,6 @@ class ObstacleTracker:
             last_seen_s=stamp_s,
             touches_top=blob.touches_top and source != "down",
         )
-        if track.touches_top:
-            track.cut_top_m = float(track.hi_m[2])
         self._last_by_source[(track.track_id, source)] = (_Seen.of(blob), stamp_s)
         track.sightings.append((stamp_s, track.centroid_m.copy()))
         self._next_id += 1
@@ -304,35 +296,10 @@ class ObstacleTracker:
         track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
-        if source != "down" and not track.has_moved:
-            self._keep_cut_top(track)
         track.last_seen_s = max(track.last_seen_s, stamp_s)
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
-
-    @staticmethod
-    def _keep_cut_top(track: TrackedObstacle) -> None:
-        """After a side view of a thing that has never moved: a top a side view cut off stays
-        unknown until an uncut side view reaches the height it was cut at.
-
-        A view that cut a thing at height ``h`` proves it reaches ``h`` and perhaps beyond; a
-        later uncut view whose top is lower is partial (the thing at the image's edge, its crown
-        a separate blob). Taken as the whole thing, it made the keep-out over a tree flicker
-        between its trunk's height and the crown's unknown top, and paths planned over the short
-        reading were dropped the next frame (open_field seed 34 held at its start). Only cut
-        tops are kept: an uncut view's top is taken as seen, so a person who once stood against
-        a rock does not leave it person-sized. A moving track keeps its latest bounds.
-        """
-        top = float(track.hi_m[2])
-        if track.touches_top:
-            track.cut_top_m = max(top, track.cut_top_m or top)
-        elif track.cut_top_m is not None:
-            if top >= track.cut_top_m - STILL_TOP_TOLERANCE_M:
-                track.cut_top_m = None  # a whole view reaching it: the top is known
-            else:  # partial: still cut at the height seen before
-                track.touches_top = True
-                track.hi_m[2] = track.cut_top_m
 
     @staticmethod
     def _extend_rigid_path(track: TrackedObstacle, source: str, step_m: FloatArray) -> None:

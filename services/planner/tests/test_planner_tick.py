@@ -32,7 +32,7 @@ def test_the_reach_floor_follows_the_vehicle_down_only_while_it_takes_off(monkey
     import llmland_planner.replanning as planner_module
 
     floors: list[float] = []
-    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg, **kw: floors.append(cfg.z_floor_m))
+    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg: floors.append(cfg.z_floor_m))
     pl = Planner()
     mpc_floors: list[float] = []
     solve = pl.mpc.solve
@@ -62,14 +62,15 @@ def test_yaw_reference_takes_the_short_way_through_pi():
     assert out.body_rates_rps[2] < 0.5  # the short way is a small negative turn, not +2π − ε
 
 
-def _planner_with_failing_searches(monkeypatch):
-    """A lockstep planner whose every search fails; the searches' ``(budget, grid_fallback)``."""
+def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
+    """A failed search used to be retried with the same budget for ever (the drone held at its
+    start for the whole episode when the way around a wide crown needed ~1000 expansions)."""
     import llmland_planner.replanning as planner_module
 
-    calls: list[tuple[int, bool]] = []
+    budgets: list[int] = []
 
-    def failing_plan(pos, vel, goal, regions, cfg, grid_fallback=False):
-        calls.append((cfg.max_expansions, grid_fallback))
+    def failing_plan(pos, vel, goal, regions, cfg):
+        budgets.append(cfg.max_expansions)
         return None
 
     monkeypatch.setattr(planner_module, "plan", failing_plan)
@@ -77,15 +78,6 @@ def _planner_with_failing_searches(monkeypatch):
     pl = Planner(settings)
     pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
                          clock="lockstep"))
-    return pl, settings, calls
-
-
-def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
-    """A failed search used to be retried with the same budget for ever (the drone held at its
-    start for the whole episode when the way around a wide crown needed ~1000 expansions)."""
-    import llmland_planner.replanning as planner_module
-
-    pl, settings, calls = _planner_with_failing_searches(monkeypatch)
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     t = 0.0
     while t < 3.0:
@@ -93,9 +85,7 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
         t += settings.search_budget_s
     base = settings.search_max_expansions
     cap = base * 2 ** planner_module.SEARCH_BUDGET_DOUBLINGS
-    assert [c[0] for c in calls[:6]] == [base, 2 * base, 4 * base, 8 * base, cap, cap]
-    # holding (no plan), the searches at the largest budget fall back to a grid detour
-    assert [c[1] for c in calls[:6]] == [False, False, False, False, True, True]
+    assert budgets[:6] == [base, 2 * base, 4 * base, 8 * base, cap, cap]
 
 
 def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypatch):
@@ -105,7 +95,7 @@ def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypa
     starts: list[float] = []
     clock = {"t": 0.0}
 
-    def failing_plan(pos, vel, goal, regions, cfg, grid_fallback=False):
+    def failing_plan(pos, vel, goal, regions, cfg):
         starts.append(clock["t"])
         return None
 
@@ -121,52 +111,6 @@ def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypa
     escalating = planner_module.SEARCH_BUDGET_DOUBLINGS + 1
     gaps = np.diff(starts[escalating:])
     assert len(gaps) >= 2 and np.all(gaps >= settings.replan_period_s - 1e-9)
-
-
-def test_no_grid_detour_while_a_plan_is_followed(monkeypatch):
-    """The detour starts at rest: replacing a path being flown would brake the vehicle at every
-    cycle of failed searches, so it is tried only while holding."""
-    import llmland_planner.replanning as planner_module
-    from llmland_planner.replanning import ActivePlan
-
-    pl, settings, calls = _planner_with_failing_searches(monkeypatch)
-    goal = np.array([10.0, 0, 3])
-    pl.paths.active = ActivePlan(_backwards_detour(), [], goal, 0.0, 1.0)
-    t = 0.0
-    while t < 6.0 * settings.replan_period_s:
-        pl.paths.maybe_replan(t, np.zeros(3), np.zeros(3), goal, [], z_floor_m=0.0)
-        t += settings.search_budget_s
-    assert len(calls) > planner_module.SEARCH_BUDGET_DOUBLINGS and not any(c[1] for c in calls)
-    assert pl.paths.active is not None  # kept: not blocked
-
-
-@pytest.mark.parametrize(("region_x_m", "kept"), [(12.0, True), (1.5, False), (0.0, False)])
-def test_a_plan_is_dropped_only_when_its_crossing_is_near(monkeypatch, region_x_m, kept):
-    """A path crossing a region far ahead is flown while new searches run (perceived boxes jitter
-    over a path that hugged them: dropping it at once held the vehicle at its start for the
-    whole episode); one crossing within ``HOLD_BEFORE_CROSSING_M`` is dropped at once, failed
-    search or not, so the vehicle stops short of the region."""
-    import llmland_planner.replanning as planner_module
-    from llmland_planner.path import Path
-    from llmland_planner.regions import UnsafeRegion
-    from llmland_planner.replanning import HOLD_BEFORE_CROSSING_M, ActivePlan
-
-    monkeypatch.setattr(planner_module, "plan", lambda *a, **kw: None)
-    settings = PlannerSettings()
-    pl = Planner(settings)
-    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, 0, 3), target_m=(20, 0, 0),
-                         clock="lockstep"))
-    t = np.arange(0.0, 10.0, 0.05)
-    p = np.column_stack([2.0 * t, np.zeros_like(t), np.full_like(t, 3.0)])
-    goal = p[-1].copy()
-    pl.paths.active = ActivePlan(Path(t, p, np.gradient(p, t, axis=0)), [], goal, 0.0, 1.0, progress_idx=20)  # x = 2
-    wall = [UnsafeRegion([2.0 + region_x_m, -3.0, 0.0], [2.6 + region_x_m, 3.0, 9.0], obj_id="w")]
-    ahead = pl.paths.crossing_ahead_m(wall)
-    assert ahead == pytest.approx(max(region_x_m - 0.1, 0.0), abs=0.15)
-    for k in range(10):
-        pl.paths.maybe_replan(k * settings.search_budget_s, p[20], np.array([2.0, 0, 0]), goal, wall, z_floor_m=0.0)
-    assert (pl.paths.active is not None) is kept
-    assert kept == (ahead >= HOLD_BEFORE_CROSSING_M)
 
 
 def _backwards_detour():

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from llmland_planner.tracking import ObstacleTracker
 from llmland_schemas.depth import Blob
@@ -222,44 +220,3 @@ def test_a_still_object_whose_bounds_jitter_back_and_forth_has_a_small_excursion
     xs = [2.0 + (0.15 if k % 2 else 0.0) + rng.uniform(-0.02, 0.02) for k in range(60)]
     (t,) = _walk(xs).tracks()
     assert t.rigid_excursion_m < 0.25
-
-
-def _tree_view(top_m: float, cut: bool) -> Blob:
-    b = blob(5.0, 0.0, half_m=1.5, height_m=top_m)
-    return dataclasses.replace(b, touches_top=cut)
-
-
-def test_a_still_things_cut_top_stays_unknown_until_a_whole_view_reaches_it() -> None:
-    """A partial view of a tree (its trunk at the image's edge) read its top as 2 m after a view
-    that cut it at 5 m; the keep-out flickered between the two and paths over the short reading
-    were dropped the next frame (open_field seed 34 held at its start)."""
-    tracker = ObstacleTracker()
-    tracker.update([_tree_view(5.0, cut=True)], 0.0, source="front")
-    (track,) = tracker.update([_tree_view(2.0, cut=False)], DT_S, source="front")
-    assert track.hi_m[2] == 5.0 and track.touches_top
-    (track,) = tracker.update([_tree_view(2.0, cut=False)], 2 * DT_S, source="down")  # sees less: no change
-    assert track.touches_top
-    # a whole view that reaches the cut height settles it
-    (track,) = tracker.update([_tree_view(5.1, cut=False)], 3 * DT_S, source="front")
-    assert track.hi_m[2] == 5.1 and not track.touches_top
-    # and uncut tops are then taken as seen
-    (track,) = tracker.update([_tree_view(3.0, cut=False)], 4 * DT_S, source="front")
-    assert track.hi_m[2] == 3.0 and not track.touches_top
-
-
-def test_an_uncut_top_is_not_kept() -> None:
-    """A person standing against a rock made one blob of both; the rock must not stay
-    person-sized (a possible person standing by the pad holds the gate for good)."""
-    tracker = ObstacleTracker()
-    tracker.update([_tree_view(1.8, cut=False)], 0.0, source="front")
-    (track,) = tracker.update([_tree_view(0.6, cut=False)], DT_S, source="front")
-    assert track.hi_m[2] == 0.6 and not track.touches_top
-
-
-def test_a_thing_that_moved_keeps_its_latest_view() -> None:
-    tracker = ObstacleTracker()
-    tracker.update([_tree_view(5.0, cut=True)], 0.0, source="front")
-    (track,) = tracker.update([_tree_view(5.0, cut=True)], DT_S, source="front")
-    track.has_moved = True
-    (track,) = tracker.update([_tree_view(1.2, cut=False)], 2 * DT_S, source="front")
-    assert track.hi_m[2] == 1.2 and not track.touches_top
