@@ -15,12 +15,24 @@ child process that runs :class:`~llmland_reasoner.llm.LlamaCppBackend`:
   with the restart count and the last error (``/healthz`` shows it).
 
 Calls are serialised (one in flight), as they are in the in-process backend.
+
+The worker is its own program (``python -m llmland_reasoner.llm_worker``), not a
+``multiprocessing`` spawn: a spawned child re-imports the parent's ``__main__`` module, which for
+the reasoner is the whole service (torch, sentence-transformers, llama-index: about 6 s of CPU
+before the model even starts loading) and, in a user's script without a ``__main__`` guard, a
+crash. The two ends talk over a socket pair with :class:`multiprocessing.connection.Connection`.
+The worker can be started without waiting for it (``wait=False``, then :meth:`WorkerLlmBackend.wait_ready`),
+so the model loads while the caller loads its other models.
 """
 
 from __future__ import annotations
 
+import argparse
 import logging
-import multiprocessing as mp
+import signal
+import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Sequence
@@ -78,11 +90,59 @@ def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int)
             conn.send(("error", f"{type(exc).__name__}: {exc}"))
 
 
+class _WorkerProcess:
+    """The worker program as a child process, with the part of ``multiprocessing.Process``'s
+    interface the supervisor uses (``exitcode`` negative: killed by that signal)."""
+
+    def __init__(self, conn_fd: int, model_path: str, n_threads: int, n_ctx: int) -> None:
+        cmd = [sys.executable, "-m", __name__, "--fd", str(conn_fd), "--model", model_path,
+               "--threads", str(n_threads), "--ctx", str(n_ctx)]
+        self._popen = subprocess.Popen(cmd, pass_fds=(conn_fd,), stdin=subprocess.DEVNULL)
+        self.pid = self._popen.pid
+
+    @property
+    def exitcode(self) -> int | None:
+        return self._popen.poll()
+
+    def is_alive(self) -> bool:
+        return self._popen.poll() is None
+
+    def join(self, timeout: float | None = None) -> None:
+        try:
+            self._popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            pass
+
+    def kill(self) -> None:
+        if self._popen.poll() is None:
+            self._popen.kill()
+
+
+def _spawn(args: tuple[str, int, int], prefixes: Sequence[str]) -> tuple[_WorkerProcess, Connection]:
+    """Start the worker program ``args = (model_path, n_threads, n_ctx)`` and queue the evaluation
+    of ``prefixes`` behind its model load (it answers each after its ready signal); returns it and
+    the parent's end of its connection."""
+    parent_sock, child_sock = socket.socketpair()
+    try:
+        proc = _WorkerProcess(child_sock.fileno(), *args)
+    finally:
+        child_sock.close()
+    conn = Connection(parent_sock.detach())
+    for prefix in prefixes:
+        conn.send(("warm", (prefix,)))
+    return proc, conn
+
+
 class WorkerLlmBackend:
     """An :class:`~llmland_reasoner.llm.LlmBackend` whose model runs in a child process."""
 
     def __init__(self, model_path: str | Path | None = None, n_threads: int = 1, n_ctx: int = 2048, *,
-                 call_timeout_s: float = 10.0, restart_backoff_s: float = 0.5) -> None:
+                 call_timeout_s: float = 10.0, restart_backoff_s: float = 0.5, wait: bool = True,
+                 warm_prefixes: Sequence[str] = ()) -> None:
+        """Start the worker; with ``wait`` (the default) block until it is ready (RuntimeError if it
+        cannot start, FileNotFoundError without the GGUF), else return at once and let
+        :meth:`wait_ready` do that. ``warm_prefixes``: prompt prefixes the worker evaluates right
+        after loading (a restarted worker too), so no call pays for them."""
         from .llm import default_gguf_path
 
         path = Path(model_path) if model_path else default_gguf_path()
@@ -93,7 +153,6 @@ class WorkerLlmBackend:
         self._args = (str(path), n_threads, n_ctx)
         self.call_timeout_s = call_timeout_s
         self.restart_backoff_s = restart_backoff_s
-        self._mp = mp.get_context("spawn")  # no fork of a threaded parent
         self._call_lock = threading.Lock()
         self._state_lock = threading.Lock()
         self._proc: Any = None
@@ -103,10 +162,23 @@ class WorkerLlmBackend:
         self.restarts = 0
         self.crashes = 0
         self.last_error = ""
-        self._prefixes: list[str] = []
         self._evaluated: set[str] = set()  # prefixes the current worker has evaluated
         self._wake = threading.Event()
-        self._start_worker()
+        self._supervisor: threading.Thread | None = None
+        self._prefixes = list(warm_prefixes)[-MAX_WARM_PREFIXES:]
+        self._pending: tuple[_WorkerProcess, Connection, list[str]] | None = (
+            *_spawn(self._args, self._prefixes), list(self._prefixes))
+        if wait:
+            self.wait_ready()
+
+    def wait_ready(self) -> None:
+        """Wait for the worker started by the constructor to load its model, then supervise it.
+        RuntimeError if it could not start. Idempotent."""
+        if self._supervisor is not None:
+            return
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            self._handshake(*pending)
         if self._state != "ready":
             raise RuntimeError(f"LLM worker could not start: {self.last_error}")
         self._supervisor = threading.Thread(target=self._supervise, name="llm-supervisor", daemon=True)
@@ -135,7 +207,8 @@ class WorkerLlmBackend:
     def health(self) -> dict[str, Any]:
         with self._state_lock:
             return {"state": self._state, "restarts": self.restarts, "crashes": self.crashes,
-                    "last_error": self.last_error, "pid": self._proc.pid if self._proc is not None else None}
+                    "last_error": self.last_error, "pid": self._proc.pid if self._proc is not None else None,
+                    "prefixes_evaluated": len(self._evaluated)}
 
     @property
     def pid(self) -> int | None:
@@ -144,6 +217,11 @@ class WorkerLlmBackend:
     def close(self) -> None:
         self._closed = True
         self._wake.set()
+        pending, self._pending = self._pending, None
+        if pending is not None:  # never waited for
+            pending[0].kill()
+            pending[0].join(timeout=2.0)
+            pending[1].close()
         with self._state_lock:
             self._stop_worker(graceful=True)
 
@@ -209,10 +287,13 @@ class WorkerLlmBackend:
 
     # ------------------------------------------------------------------ lifecycle
     def _start_worker(self) -> None:
-        parent, child = self._mp.Pipe()
-        proc = self._mp.Process(target=_serve, args=(child, *self._args), name="llmland-llm-worker", daemon=True)
-        proc.start()
-        child.close()
+        prefixes = list(self._prefixes)  # the new worker evaluates the known prefixes once
+        self._handshake(*_spawn(self._args, prefixes), prefixes)
+
+    def _handshake(self, proc: _WorkerProcess, parent: Connection, prefixes: list[str]) -> None:
+        """Wait for a started worker's ready signal and its answers to the prefix warm-ups queued
+        by :func:`_spawn`; the state becomes ``ready``, or ``failed`` with the reason in
+        ``last_error``."""
         ok = parent.poll(START_TIMEOUT_S)
         try:
             kind, value = parent.recv() if ok else ("error", f"no ready signal within {START_TIMEOUT_S:.0f} s")
@@ -228,8 +309,7 @@ class WorkerLlmBackend:
                 self._state = "failed"
             return
         evaluated: set[str] = set()
-        for prefix in list(self._prefixes):  # the new worker evaluates the known prefixes once
-            parent.send(("warm", (prefix,)))
+        for prefix in prefixes:
             if not parent.poll(START_TIMEOUT_S):
                 # its late answer would be read as the next call's: the pipe would stay one
                 # answer behind. A failed start instead (killed; the supervisor retries).
@@ -240,8 +320,8 @@ class WorkerLlmBackend:
                     self.last_error = f"no answer to the prefix warm-up within {START_TIMEOUT_S:.0f} s"
                     self._state = "failed"
                 return
-            parent.recv()
-            evaluated.add(prefix)
+            if parent.recv()[0] == "ok":
+                evaluated.add(prefix)
         self._evaluated = evaluated
         with self._state_lock:
             self._proc, self._conn = proc, parent
@@ -297,3 +377,22 @@ class WorkerLlmBackend:
                 log.error("LLM worker restart failed: %s (next try in %.1f s)", self.last_error, backoff)
                 backoff = min(MAX_BACKOFF_S, 2.0 * backoff)
                 self._wake.set()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The worker program: serve the parent over the inherited connection ``--fd``."""
+    ap = argparse.ArgumentParser(prog="python -m llmland_reasoner.llm_worker", description=__doc__.splitlines()[0])
+    ap.add_argument("--fd", type=int, required=True, help="file descriptor of the connection to the parent")
+    ap.add_argument("--model", required=True, help="GGUF path")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--ctx", type=int, default=2048)
+    args = ap.parse_args(argv)
+    from llmland_schemas.service import configure_logging
+
+    configure_logging()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent stops us
+    _serve(Connection(args.fd), args.model, args.threads, args.ctx)
+
+
+if __name__ == "__main__":
+    main()

@@ -12,6 +12,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import prompts
 from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline, load_sentence_model
 from .grounding import NameIndex
 from .kb import KbEntry, KnowledgeBase
@@ -27,15 +28,28 @@ from .settings import ReasonerSettings
 log = logging.getLogger(__name__)
 
 
-def make_backend(settings: ReasonerSettings) -> LlmBackend:
-    """The LLM backend named by ``settings.llm_backend``."""
+def make_backend(settings: ReasonerSettings, *, wait: bool = True) -> LlmBackend:
+    """The LLM backend named by ``settings.llm_backend``. ``wait=False`` returns a worker-process
+    backend before its model has loaded (call its ``wait_ready()`` before use); an in-process
+    backend is always loaded."""
     if settings.llm_backend == "llama_cpp" and settings.llm_isolation == "process":
         return WorkerLlmBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx,
                                 call_timeout_s=2.0 * settings.timeout_s,
-                                restart_backoff_s=settings.llm_restart_backoff_s)
+                                restart_backoff_s=settings.llm_restart_backoff_s, wait=wait,
+                                warm_prefixes=warm_prefixes(settings))
     if settings.llm_backend == "llama_cpp":
         return LlamaCppBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx)
     raise ValueError(f"unknown llm backend {settings.llm_backend!r}")
+
+
+def warm_prefixes(settings: ReasonerSettings) -> list[str]:
+    """The prompt prefix the configured mode asks the LLM with (none for ``retrieval``, or for
+    ``rag`` without the LLM's pointer): a worker evaluates it while the other models load."""
+    if settings.mode == "llm":
+        return [prompts.paper_prefix()]
+    if settings.mode == "rag" and settings.rag_pointer == "llm":
+        return [prompts.rag_prefix(settings.rag_context_in_prompt)]
+    return []
 
 
 @dataclass
@@ -59,23 +73,39 @@ class Resources:
         force_offline()
         started = time.perf_counter()
         res = cls(settings=settings, kb=KnowledgeBase.load(settings.kb_path))
-        if retrieval:
-            t0 = time.perf_counter()
-            name = Path(settings.embed_model_path).name if settings.embed_model_path else DEFAULT_EMBED_NAME
-            model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads)
-            res.embed = LocalSentenceEmbedding(model, model_name=name)
-            res.load_s["embedder"] = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            res.wordnet = WordNet(settings.wordnet_dir)
-            res.load_s["wordnet"] = time.perf_counter() - t0
-            res.rebuild_retriever()
-        if llm:
-            t0 = time.perf_counter()
-            res.backend = make_backend(settings)
-            res.load_s["llm"] = time.perf_counter() - t0
+        # A worker process loads its model on the other core while this one loads the embedder.
+        backend = make_backend(settings, wait=False) if llm else None
+        try:
+            res._load_retrieval(settings, retrieval)
+            if backend is not None:
+                t0 = time.perf_counter()
+                wait_ready = getattr(backend, "wait_ready", None)
+                if callable(wait_ready):
+                    wait_ready()
+                res.backend = backend
+                res.load_s["llm"] = time.perf_counter() - t0  # what was left to wait for
+        except BaseException:
+            close = getattr(backend, "close", None)
+            if callable(close):
+                close()
+            raise
         res.load_s["total"] = time.perf_counter() - started
         log.info("reasoner resources loaded: %s", {k: round(v, 2) for k, v in res.load_s.items()})
         return res
+
+    def _load_retrieval(self, settings: ReasonerSettings, retrieval: bool) -> None:
+        """The embedder, WordNet and the index (when ``retrieval``)."""
+        if not retrieval:
+            return
+        t0 = time.perf_counter()
+        name = Path(settings.embed_model_path).name if settings.embed_model_path else DEFAULT_EMBED_NAME
+        model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads)
+        self.embed = LocalSentenceEmbedding(model, model_name=name)
+        self.load_s["embedder"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        self.wordnet = WordNet(settings.wordnet_dir)
+        self.load_s["wordnet"] = time.perf_counter() - t0
+        self.rebuild_retriever()
 
     def rebuild_retriever(self) -> None:
         """(Re)build or reload the index for the current KB version."""

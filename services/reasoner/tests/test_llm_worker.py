@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -121,3 +123,28 @@ def test_api_stays_up_and_answers_fallback_while_the_worker_is_down(tmp_path: Pa
             == "rag"
     finally:
         engine.close()
+
+
+def test_prefixes_given_at_start_are_evaluated_before_ready() -> None:
+    b = WorkerLlmBackend(n_threads=1, call_timeout_s=20.0, wait=False, warm_prefixes=[PREFIX])
+    try:
+        assert b.health()["state"] == "starting"  # returned before the model loaded
+        b.wait_ready()
+        assert b.health() | {"pid": None} == {"state": "ready", "restarts": 0, "crashes": 0, "last_error": "",
+                                              "pid": None, "prefixes_evaluated": 1}
+        assert len(b.score(PREFIX, "Caption: a dog\nObstacle:", [" dog"], True)) == 1
+    finally:
+        b.close()
+
+
+def test_a_script_without_a_main_guard_can_start_the_worker(tmp_path: Path) -> None:
+    """The worker is its own program: it never re-imports the caller's ``__main__`` (a
+    ``multiprocessing`` spawn does, which failed here and cost the reasoner ~6 s of imports)."""
+    (tmp_path / "unguarded.py").write_text(
+        "from llmland_reasoner.llm_worker import WorkerLlmBackend\n"
+        "b = WorkerLlmBackend(n_threads=1)\n"
+        f"print(len(b.score({PREFIX!r}, 'x', [' y'], True)))\n"
+        "b.close()\n")
+    proc = subprocess.run([sys.executable, "-m", "unguarded"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 0 and proc.stdout.strip() == "1", proc.stderr[-2000:]
