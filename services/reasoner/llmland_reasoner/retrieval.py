@@ -12,6 +12,7 @@ import contextlib
 import hashlib
 import io
 import logging
+import os
 import re
 import shutil
 import threading
@@ -103,13 +104,28 @@ class Retriever:
         self._bm25 = BM25Retriever.from_defaults(nodes=nodes, similarity_top_k=_SUB_TOP_K)
         if folder is None:
             return
-        tmp = folder.with_name(folder.name + ".tmp")
+        self._persist(folder)
+
+    def _persist(self, folder: Path) -> None:
+        """Write the index to ``folder`` atomically: into a folder of this process's own, renamed
+        into place. Several reasoners may build the same index at once (``--jobs``, a fleet, a
+        fresh machine): each writes its own copy, the first rename wins and the others discard
+        theirs, so no reasoner ever reads a half-written or deleted index."""
+        tmp = folder.with_name(f"{folder.name}.tmp-{os.getpid()}-{threading.get_ident()}")
         shutil.rmtree(tmp, ignore_errors=True)
-        self._index.storage_context.persist(persist_dir=str(tmp / "vector"))
-        self._bm25.persist(str(tmp / "bm25"))
-        (tmp / "done").write_text(self.kb.version + "\n", encoding="utf-8")
-        shutil.rmtree(folder, ignore_errors=True)
-        tmp.rename(folder)
+        try:
+            self._index.storage_context.persist(persist_dir=str(tmp / "vector"))
+            self._bm25.persist(str(tmp / "bm25"))
+            (tmp / "done").write_text(self.kb.version + "\n", encoding="utf-8")
+            if folder.exists() and not (folder / "done").exists():
+                shutil.rmtree(folder, ignore_errors=True)  # left incomplete by an older version
+            try:
+                tmp.rename(folder)
+            except OSError:  # another process's rename came first: its index is this one
+                log.info("index already persisted to %s by another process", folder)
+                return
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
         log.info("index persisted to %s", folder)
 
     def _load(self, folder: Path) -> None:

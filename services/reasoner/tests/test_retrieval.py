@@ -67,3 +67,17 @@ def test_index_is_persisted_and_reloaded_by_kb_version(
     assert not extended.loaded_from_disk  # new version, new index
     assert extended.retrieve("a robotic mower cutting grass")[0][0].id == "robot_mower"
     assert len([p for p in tmp_path.iterdir() if p.is_dir()]) == 2
+
+
+def test_builders_racing_for_one_index_folder_never_break_it(resources: Resources, tmp_path: Path) -> None:
+    """Two reasoners building the same index at once (``--jobs 2`` on a fresh machine): the second
+    to finish keeps the first one's folder (it may be in use) and leaves no temporary folder."""
+    assert resources.embed is not None
+    kb = KnowledgeBase.load()
+    first = Retriever(kb, resources.embed, index_dir=tmp_path)
+    folder = tmp_path / index_key(kb, resources.embed.model_name)
+    done = (folder / "done").stat()
+    first._build(folder)  # a second builder finishing after the first
+    assert (folder / "done").stat().st_ino == done.st_ino  # the folder in use was not replaced
+    assert [p.name for p in tmp_path.iterdir()] == [folder.name]
+    assert Retriever(kb, resources.embed, index_dir=tmp_path).loaded_from_disk
