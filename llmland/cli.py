@@ -303,7 +303,7 @@ def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
 
 def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
-    bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner"])
+    bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner", "startup"])
     bench.add_argument("--json", action="store_true")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)

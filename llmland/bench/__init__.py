@@ -33,6 +33,9 @@ def run(what: str, *, quick: bool = False) -> dict[str, Any]:
     elif what == "reasoner":
         from .reasoner import run_reasoner
         figures = run_reasoner(quick=quick)
+    elif what == "startup":
+        from .startup import run_startup
+        figures = run_startup(runs=1 if quick else 3)
     elif what == "vle":
         from llmland_vle.bench import run_bench as run_vle
         figures = run_vle(quick=quick)
