@@ -80,6 +80,7 @@ class Stack:
         self.log_level = log_level
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
         self._stop_lock = threading.Lock()
+        self._stopped = threading.Event()
         self._files: list[Any] = []
 
     def env_for(self, name: str) -> dict[str, str]:
@@ -96,6 +97,7 @@ class Stack:
         return env
 
     def start(self, names: Iterable[str]) -> None:
+        self._stopped.clear()
         for name in names:
             cmd = [sys.executable, "-m", SERVICE_MODULES[name]]
             # Children log to stderr (or a file each); stdout stays clean for the CLI's JSON.
@@ -121,6 +123,8 @@ class Stack:
                 found |= bus.alive(ALIVE_GROUND, timeout_s=0.5)
             if want <= found:
                 return
+            if self._stopped.is_set():
+                raise RuntimeError("stack stopped during start-up")
             for name, proc in self.procs.items():
                 if proc.poll() is not None:
                     raise RuntimeError(f"service {name} exited with code {proc.returncode} during start-up")
@@ -132,6 +136,7 @@ class Stack:
         """SIGTERM every service's process group, SIGKILL after ``grace_s``. Safe to call from
         several threads at once (an interrupted experiment stops stacks its jobs are closing)."""
         with self._stop_lock:
+            self._stopped.set()
             procs, files = dict(self.procs), list(self._files)
             self.procs.clear()
             self._files.clear()

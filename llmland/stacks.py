@@ -11,7 +11,7 @@ import logging
 import os
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,15 +141,21 @@ def _peak_rss_kb(pid: int) -> float:
 @contextmanager
 def open_stack(cfg: StackConfig, *, drone_id: str = "d0", port: int = 0, log_level: str = "WARNING",
                log_dir: Path | None = None, start_timeout_s: float = 120.0,
-               env: dict[str, str] | None = None) -> Iterator[RunningStack]:
+               env: dict[str, str] | None = None,
+               on_start: Callable[[Stack], None] | None = None) -> Iterator[RunningStack]:
     """Start ``cfg``'s services on a fresh loopback hub; stop them all on exit.
 
     ``env``: extra environment for the services (settings such as ``LLMLAND_SIM_...``).
+    ``on_start(stack)``: called once the processes exist, before they are up, so that another
+    thread can stop a stack that is still starting (``stack.stop()`` is thread-safe; the wait for
+    the services then fails with RuntimeError).
     """
     port = port or free_port()
     with hub_bus(port) as bus, Stack(port, drone_id, env={**cfg.env(), **(env or {})}, log_level=log_level,
                                      log_dir=log_dir) as stack:
         stack.start(cfg.services())
+        if on_start is not None:
+            on_start(stack)
         if cfg.perception == "oracle":
             OracleSpecPublisher(bus, drone_id)
         stack.wait_alive(bus, timeout_s=start_timeout_s)

@@ -80,5 +80,27 @@ def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> Non
         assert len(_rows_without_wall_columns(tmp_path / "trials.csv")) < 2
 
 
-#: wall seconds the two stacks get to start
+def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path: Path) -> None:
+    """One job, the pipeline stack still starting (the reasoner loads for ~12 s): Ctrl-C, and
+    Ctrl-C again, stop every service at once. Before, the first interrupted ``Thread.join`` marked
+    the running job as stopped (CPython 3.11), the CLI exited at once and all five processes
+    (four services and the LLM worker) were orphaned."""
+    proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "1", "--methods", "llm-land",
+                             "--out", str(tmp_path)], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + STARTUP_WAIT_S
+    services: list[psutil.Process] = []
+    while time.monotonic() < deadline and len(services) < 5:  # sim, planner, vle, reasoner + LLM worker
+        services = parent.children(recursive=True)
+        time.sleep(0.2)
+    assert len(services) >= 5, "the stack did not start"
+    proc.send_signal(signal.SIGINT)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) != 0
+    gone, alive = psutil.wait_procs(services, timeout=10)
+    assert not alive, [(p.pid, p.name()) for p in alive]
+
+
+#: wall seconds the stacks get to start
 STARTUP_WAIT_S = 60.0

@@ -23,6 +23,7 @@ from llmland_schemas import EpisodeResult
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
+from ..launch import Stack
 from ..stacks import RunningStack, StackConfig, make_mission, open_stack
 from .plan import Trial
 from .traces import TraceRecorder
@@ -117,6 +118,12 @@ class ExperimentRunner:
         self._bar: tqdm | None = None
         self._stop = threading.Event()
         self._live: dict[int, RunningStack] = {}
+        #: stacks whose processes exist but which may not be up yet, by job
+        self._starting: dict[int, Stack] = {}
+        #: set by each job as its last act (after its stack stopped). Not ``Thread.is_alive()``:
+        #: on CPython 3.11 a ``join`` interrupted by Ctrl-C marks a running thread as stopped, so
+        #: the interpreter then exits without waiting for it and its services are orphaned.
+        self._finished: list[threading.Event] = []
 
     # ------------------------------------------------------------------ scheduling
     def _take(self, current: StackConfig | None) -> Trial | None:
@@ -170,7 +177,8 @@ class ExperimentRunner:
                             resources.close()
                             current = trial.stack()
                             running = resources.enter_context(open_stack(
-                                current, log_level=self.log_level, log_dir=self.out / "logs" / f"job{index}"))
+                                current, log_level=self.log_level, log_dir=self.out / "logs" / f"job{index}",
+                                on_start=lambda st: self._starting.__setitem__(index, st)))
                             tracer = TraceRecorder(running.bus, running.runner.drone_id)
                             self._live[index] = running
                         assert running is not None and tracer is not None
@@ -188,7 +196,11 @@ class ExperimentRunner:
                             self._record(error_row(trial, f"{type(exc).__name__}: {exc}"))
         finally:
             self._live.pop(index, None)
-            resources.close()
+            try:
+                resources.close()
+            finally:
+                self._starting.pop(index, None)
+                self._finished[index].set()
 
     def _interrupt(self) -> None:
         """Ctrl-C or SIGTERM: fly nothing more and stop every stack now (no orphaned services)."""
@@ -197,10 +209,24 @@ class ExperimentRunner:
             self.todo.clear()
         for running in list(self._live.values()):
             running.runner.abort()
+        for stack in [*(r.stack for r in list(self._live.values())), *list(self._starting.values())]:
             try:
-                running.stack.stop(grace_s=STOP_GRACE_S)
+                stack.stop(grace_s=STOP_GRACE_S)  # one still starting then fails its wait, and its job ends
             except (RuntimeError, OSError) as exc:  # a job thread closing the same stack
                 log.debug("stopping a stack: %s", exc)
+
+    def _stop_all(self) -> None:
+        """Stop every stack and wait until every job has ended. A second Ctrl-C or SIGTERM meanwhile
+        is ignored: leaving now would orphan the services still being stopped (seconds)."""
+        sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        sigterm = signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        try:
+            while not all(done.is_set() for done in self._finished):
+                self._interrupt()
+                time.sleep(JOIN_POLL_S)
+        finally:
+            signal.signal(signal.SIGINT, sigint)
+            signal.signal(signal.SIGTERM, sigterm)
 
     def run(self) -> float:
         """Fly every trial still to do; returns the wall time (s)."""
@@ -210,20 +236,19 @@ class ExperimentRunner:
         with logging_redirect_tqdm(), tqdm(total=len(self.todo), desc=self.label or "trials", unit="trial",
                                            dynamic_ncols=True) as bar:
             self._bar = bar
+            self._finished = [threading.Event() for _ in range(self.jobs)]
             threads = [threading.Thread(target=self._job, args=(i,), name=f"job{i}") for i in range(self.jobs)]
             previous = signal.signal(signal.SIGTERM, _raise_interrupt)
             try:
                 for t in threads:
                     t.start()
-                for t in threads:
-                    while t.is_alive():  # a timed join lets Ctrl-C / SIGTERM reach this thread
-                        t.join(JOIN_POLL_S)
+                for done in self._finished:
+                    while not done.wait(JOIN_POLL_S):  # a timed wait lets Ctrl-C / SIGTERM reach this thread
+                        pass
             except KeyboardInterrupt:
-                log.warning("interrupted: stopping %d running stack(s); --resume continues from trials.csv",
-                            len(self._live))
-                while any(t.is_alive() for t in threads):  # a stack still starting stops once up
-                    self._interrupt()
-                    time.sleep(JOIN_POLL_S)
+                log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv",
+                            len(self._live) + len(self._starting))
+                self._stop_all()
                 raise
             finally:
                 signal.signal(signal.SIGTERM, previous)
