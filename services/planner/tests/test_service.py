@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from llmland_planner.main import PlannerService
+from llmland_planner.main import MISSION_WAIT_S, PlannerService
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import (
     CameraFrameHeader,
@@ -95,6 +95,6 @@ def test_a_leftover_state_of_an_ended_episode_costs_no_wait() -> None:
             stamp=1.0, seq=50, position_m=(0.0, 0.0, 3.0), velocity_mps=(0.0, 0.0, 0.0),
             quat_xyzw=(0.0, 0.0, 0.0, 1.0), euler_rpy_rad=(0.0, 0.0, 0.0), body_rates_rps=(0.0, 0.0, 0.0),
             episode_id="e1"))
-        assert time.monotonic() - t0 < 0.5
+        assert time.monotonic() - t0 < 0.5 * MISSION_WAIT_S  # not the wait for a mission to come (loose: CI load)
     finally:
         service.close()

@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import replace
@@ -35,10 +36,15 @@ class GarbageBackend(BrokenBackend):
 
 
 class SlowBackend(BrokenBackend):
+    """Answers only once the test releases it (or after 30 s)."""
+
     name = "slow"
 
+    def __init__(self) -> None:
+        self.release = threading.Event()
+
     def complete(self, prefix: str, suffix: str, grammar: str | None, max_tokens: int, temperature: float) -> str:
-        time.sleep(1.0)
+        self.release.wait(30.0)
         return 'yes", "z_min": 3.0, "buffer": 3}'
 
 
@@ -134,14 +140,17 @@ def test_model_failure_falls_back_conservatively(resources: Resources, backend: 
 
 def test_timeout_falls_back_and_the_late_answer_is_cached(resources: Resources) -> None:
     settings = resources.settings.model_copy(update={"timeout_s": 0.2})
-    extractor = SpecExtractor("llm", settings=settings, resources=replace(resources, backend=SlowBackend()))
-    started = time.perf_counter()
+    slow = SlowBackend()
+    extractor = SpecExtractor("llm", settings=settings, resources=replace(resources, backend=slow))
     result = extractor.extract_detailed("a person waiting at a bus stop")
-    assert time.perf_counter() - started < 0.9
+    assert not slow.release.is_set()  # answered while the LLM was still busy: the timeout, not the LLM
     assert result.spec.source == "fallback" and "timeout" in result.error
-    time.sleep(1.2)
-    late = extractor.extract_detailed("a person waiting at a bus stop")
-    assert late.cached and late.spec.source == "llm" and late.spec.buffer_m == 3.0
+    slow.release.set()
+    deadline = time.monotonic() + 10.0
+    while not (late := extractor.extract_detailed("a person waiting at a bus stop")).cached:
+        assert time.monotonic() < deadline, "the late answer was never cached"
+        time.sleep(0.05)
+    assert late.spec.source == "llm" and late.spec.buffer_m == 3.0
     extractor.close()
 
 
