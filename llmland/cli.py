@@ -41,26 +41,30 @@ def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | N
                         scenario=args.scenario)
 
 
-def summary_line(r: EpisodeResult) -> str:
-    """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time."""
+def summary_line(r: EpisodeResult, startup_s: float | None = None) -> str:
+    """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time
+    (and the services' start-up before it, ``startup_s``, when given)."""
     td = f"{r.touchdown_error_m:.2f} m" if r.touchdown_error_m is not None else "—"
     closest = f"{min(r.min_person_distance_m.values()):.2f} m" if r.min_person_distance_m else "no person"
     lat = f"{r.spec_latency_ms_mean:.0f} ms" if r.spec_latency_ms_mean is not None else "—"
     degraded = f", perception degraded {r.perception_degraded_s:.1f} s" if r.perception_degraded else ""
     return (f"{r.method} {r.world} seed {r.seed}: {r.outcome.upper()} — touchdown error {td}, "
             f"closest person {closest}, spec latency {lat}, {r.sim_time_s:.1f} s flown in "
-            f"{r.wall_time_s:.1f} s wall{degraded}")
+            f"{r.wall_time_s:.1f} s wall{degraded}"
+            + (f" (after {startup_s:.1f} s of service start-up)" if startup_s is not None else ""))
 
 
 def cmd_land(args: argparse.Namespace) -> int:
     rrd = str(Path(args.rrd).resolve()) if args.rrd else None
     cfg = _config(args)
+    t0 = time.perf_counter()
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
+        startup_s = time.perf_counter() - t0
         for fault in args.kill:
             service, _, at = fault.partition("@")
             running.kill_at(service, float(at or 0.0))
         result = running.runner.run(_mission(args, cfg, args.seed, rrd))
-    sys.stderr.write(summary_line(result) + "\n")
+    sys.stderr.write(summary_line(result, startup_s) + "\n")
     sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1

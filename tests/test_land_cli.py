@@ -30,6 +30,7 @@ def test_readme_first_command_flies_llm_land_through_the_pipeline_and_writes_a_v
     assert result["spec_latency_ms_mean"] is not None and result["perception_requests"] > 20
     assert result["close_calls"] == 0 and result["collisions"] == []
     assert f"llm-land open_field seed 1: {result['outcome'].upper()}" in proc.stderr  # the one-line summary
+    assert "s of service start-up)" in proc.stderr
     assert rrd.exists() and rrd.stat().st_size > 10_000
     rerun = shutil.which("rerun", path=str(BIN)) or str(Path(sys.executable).parent / "rerun")
     verify = subprocess.run([rerun, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=120)

