@@ -118,13 +118,13 @@ class Stack:
         shared = any(n in SHARED_SERVICES for n in self.procs)
         deadline = time.monotonic() + timeout_s
         while True:
+            if self._stopped.is_set():
+                raise RuntimeError("stack stopped during start-up")
             found = bus.alive(ALIVE_ANY_DRONE, timeout_s=0.5)
             if shared:
                 found |= bus.alive(ALIVE_GROUND, timeout_s=0.5)
             if want <= found:
                 return
-            if self._stopped.is_set():
-                raise RuntimeError("stack stopped during start-up")
             for name, proc in self.procs.items():
                 if proc.poll() is not None:
                     raise RuntimeError(f"service {name} exited with code {proc.returncode} during start-up")

@@ -215,13 +215,17 @@ class ExperimentRunner:
             except (RuntimeError, OSError) as exc:  # a job thread closing the same stack
                 log.debug("stopping a stack: %s", exc)
 
-    def _stop_all(self) -> None:
-        """Stop every stack and wait until every job has ended. A second Ctrl-C or SIGTERM meanwhile
-        is ignored: leaving now would orphan the services still being stopped (seconds)."""
+    def _stop_all(self, threads: list[threading.Thread]) -> None:
+        """Stop every stack and wait until every job has ended (a job whose thread never started,
+        the interrupt having come while starting them, has nothing to stop). A second Ctrl-C or
+        SIGTERM meanwhile is ignored: leaving now would orphan the services still being stopped
+        (seconds)."""
         sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
         sigterm = signal.signal(signal.SIGTERM, signal.SIG_IGN)
         try:
-            while not all(done.is_set() for done in self._finished):
+            log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv",
+                        len(self._live) + len(self._starting))
+            while not all(done.is_set() or t.ident is None for done, t in zip(self._finished, threads, strict=True)):
                 self._interrupt()
                 time.sleep(JOIN_POLL_S)
         finally:
@@ -246,9 +250,7 @@ class ExperimentRunner:
                     while not done.wait(JOIN_POLL_S):  # a timed wait lets Ctrl-C / SIGTERM reach this thread
                         pass
             except KeyboardInterrupt:
-                log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv",
-                            len(self._live) + len(self._starting))
-                self._stop_all()
+                self._stop_all(threads)
                 raise
             finally:
                 signal.signal(signal.SIGTERM, previous)

@@ -178,8 +178,18 @@ class WorkerLlmBackend:
             return
         pending, self._pending = self._pending, None
         if pending is not None:
-            self._handshake(*pending)
-        if self._state != "ready":
+            try:
+                self._handshake(*pending)
+            except BaseException:  # interrupted: never leave the worker behind
+                pending[0].kill()
+                pending[0].join(timeout=2.0)
+                pending[1].close()
+                raise
+        if self._state == "restarting":  # the model loaded, then the worker crashed: serve the fallback
+            log.error("LLM worker lost: %s; answering with the conservative fallback until it restarts",
+                      self.last_error)
+            self._wake.set()
+        elif self._state != "ready":
             raise RuntimeError(f"LLM worker could not start: {self.last_error}")
         self._supervisor = threading.Thread(target=self._supervise, name="llm-supervisor", daemon=True)
         self._supervisor.start()
@@ -271,7 +281,10 @@ class WorkerLlmBackend:
         if proc is None:
             return "no process"
         proc.join(timeout=1.0)
-        code = proc.exitcode
+        return self._code_reason(proc.exitcode)
+
+    @staticmethod
+    def _code_reason(code: int | None) -> str:
         if code is None:
             return "still running"
         return f"killed by signal {-code}" if code < 0 else f"exit code {code}"
@@ -288,12 +301,31 @@ class WorkerLlmBackend:
     # ------------------------------------------------------------------ lifecycle
     def _start_worker(self) -> None:
         prefixes = list(self._prefixes)  # the new worker evaluates the known prefixes once
-        self._handshake(*_spawn(self._args, prefixes), prefixes)
+        try:
+            pending = _spawn(self._args, prefixes)
+        except OSError as exc:  # could not even start the program (or queue its warm-up)
+            with self._state_lock:
+                self.last_error = f"could not start the LLM worker: {exc}"
+                self._state = "failed"
+            return
+        self._handshake(*pending, prefixes)
+
+    def _fail_start(self, proc: _WorkerProcess, parent: Connection, reason: str, state: str = "failed") -> None:
+        proc.kill()
+        proc.join(timeout=2.0)
+        parent.close()
+        with self._state_lock:
+            self.last_error = reason
+            self._state = state
+            if state == "restarting":
+                self.crashes += 1
 
     def _handshake(self, proc: _WorkerProcess, parent: Connection, prefixes: list[str]) -> None:
         """Wait for a started worker's ready signal and its answers to the prefix warm-ups queued
-        by :func:`_spawn`; the state becomes ``ready``, or ``failed`` with the reason in
-        ``last_error``."""
+        by :func:`_spawn`; the state becomes ``ready``; ``failed`` with the reason in ``last_error``
+        when the model did not load; ``restarting`` (a crash: the supervisor restarts it) when the
+        model loaded and the worker then died or hung in the warm-up (a bad llama.cpp build for the
+        CPU faults at the first evaluation, not at load)."""
         ok = parent.poll(START_TIMEOUT_S)
         try:
             kind, value = parent.recv() if ok else ("error", f"no ready signal within {START_TIMEOUT_S:.0f} s")
@@ -301,26 +333,24 @@ class WorkerLlmBackend:
             proc.join(timeout=1.0)
             kind, value = "error", f"worker died while loading (exit {proc.exitcode})"
         if kind != "ready":
-            proc.kill()
-            proc.join(timeout=2.0)
-            parent.close()
-            with self._state_lock:
-                self.last_error = str(value)
-                self._state = "failed"
+            self._fail_start(proc, parent, str(value))
             return
         evaluated: set[str] = set()
         for prefix in prefixes:
-            if not parent.poll(START_TIMEOUT_S):
-                # its late answer would be read as the next call's: the pipe would stay one
-                # answer behind. A failed start instead (killed; the supervisor retries).
-                proc.kill()
-                proc.join(timeout=2.0)
-                parent.close()
-                with self._state_lock:
-                    self.last_error = f"no answer to the prefix warm-up within {START_TIMEOUT_S:.0f} s"
-                    self._state = "failed"
+            try:
+                if not parent.poll(START_TIMEOUT_S):
+                    # its late answer would be read as the next call's: the pipe would stay one
+                    # answer behind. A crash instead (killed; the supervisor restarts it).
+                    self._fail_start(proc, parent, "LLM worker gave no answer to the prefix warm-up within "
+                                     f"{START_TIMEOUT_S:.0f} s (killed)", "restarting")
+                    return
+                answer = parent.recv()
+            except (EOFError, OSError):
+                proc.join(timeout=1.0)
+                self._fail_start(proc, parent, f"LLM worker died ({self._code_reason(proc.exitcode)}) during the "
+                                 "prefix warm-up", "restarting")
                 return
-            if parent.recv()[0] == "ok":
+            if answer[0] == "ok":
                 evaluated.add(prefix)
         self._evaluated = evaluated
         with self._state_lock:

@@ -30,6 +30,8 @@ from llama_index.retrievers.bm25 import BM25Retriever
 from .kb import KbEntry, KnowledgeBase
 
 log = logging.getLogger(__name__)
+#: a builder's temporary index folder older than this (s) was left by a killed process
+STALE_TMP_S = 3600.0
 
 TOP_K = 3
 _SUB_TOP_K = 6  # each retriever looks a little deeper so that the fusion can break ties
@@ -111,6 +113,10 @@ class Retriever:
         into place. Several reasoners may build the same index at once (``--jobs``, a fleet, a
         fresh machine): each writes its own copy, the first rename wins and the others discard
         theirs, so no reasoner ever reads a half-written or deleted index."""
+        for stale in folder.parent.glob(f"{folder.name}.tmp-*"):  # of builders killed mid-write
+            with contextlib.suppress(OSError):
+                if time.time() - stale.stat().st_mtime > STALE_TMP_S:
+                    shutil.rmtree(stale, ignore_errors=True)
         tmp = folder.with_name(f"{folder.name}.tmp-{os.getpid()}-{threading.get_ident()}")
         shutil.rmtree(tmp, ignore_errors=True)
         try:

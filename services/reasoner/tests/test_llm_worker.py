@@ -148,3 +148,47 @@ def test_a_script_without_a_main_guard_can_start_the_worker(tmp_path: Path) -> N
     proc = subprocess.run([sys.executable, "-m", "unguarded"], cwd=tmp_path, capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0 and proc.stdout.strip() == "1", proc.stderr[-2000:]
+
+
+class _DeadAfterLoad:
+    """A worker program (fake) that loads, says ready, then dies before answering its warm-up."""
+
+    pid = 999_999
+    exitcode = -11
+
+    def is_alive(self) -> bool:
+        return False
+
+    def join(self, timeout: float | None = None) -> None:
+        return None
+
+    def kill(self) -> None:
+        return None
+
+
+def test_a_worker_dying_in_its_prefix_warm_up_is_a_crash_not_a_dead_reasoner(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A bad llama.cpp build faults at the first evaluation, after loading: the backend comes up in
+    the restarting state (fallback specs), it does not raise out of the reasoner's start-up."""
+    import socket
+    from multiprocessing.connection import Connection
+
+    from llmland_reasoner import llm_worker
+
+    def spawn(_args: tuple[str, int, int], prefixes: list[str]) -> tuple[_DeadAfterLoad, Connection]:
+        ours, theirs = socket.socketpair()
+        child = Connection(theirs.detach())
+        child.send(("ready", "fake"))
+        child.close()
+        return _DeadAfterLoad(), Connection(ours.detach())  # type: ignore[return-value]
+
+    monkeypatch.setattr(llm_worker, "_spawn", spawn)
+    b = WorkerLlmBackend(n_threads=1, restart_backoff_s=30.0, warm_prefixes=[PREFIX])
+    try:
+        h = b.health()
+        assert h["state"] == "restarting" and h["crashes"] == 1 and "warm-up" in h["last_error"], h
+        assert "signal 11" in h["last_error"]
+        with pytest.raises(LlmUnavailableError):
+            b.score(PREFIX, "x", [" y"], True)
+    finally:
+        b.close()
