@@ -22,6 +22,8 @@ from . import percentiles
 SERVICES = ("sim", "planner", "vle", "reasoner")
 #: longest wall time (s) a stack may take to come up before the run fails
 START_TIMEOUT_S = 240.0
+#: how long (s) the token subscriber may lag the liveliness query that saw every service up
+TOKEN_EVENT_WAIT_S = 5.0
 
 
 def _one_start(drone_id: str = "d0") -> dict[str, float]:
@@ -46,13 +48,9 @@ def _one_start(drone_id: str = "d0") -> dict[str, float]:
         subs = [bus.session.liveliness().declare_subscriber(sel, on_token) for sel in (ALIVE_ANY_DRONE, ALIVE_GROUND)]
         try:
             stack.start(SERVICES)
-            deadline = time.monotonic() + START_TIMEOUT_S
-            while not done.wait(0.2):
-                for name, proc in stack.procs.items():
-                    if proc.poll() is not None:
-                        raise RuntimeError(f"service {name} exited with code {proc.returncode} during start-up")
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"not up after {START_TIMEOUT_S:.0f} s: {sorted(set(SERVICES) - set(seen))}")
+            stack.wait_alive(bus, timeout_s=START_TIMEOUT_S)  # fails on a service that exits meanwhile
+            if not done.wait(TOKEN_EVENT_WAIT_S):  # the subscriber's own record of the last token
+                raise TimeoutError(f"no liveliness event from {sorted(set(SERVICES) - set(seen))}")
         finally:
             for sub in subs:
                 sub.undeclare()

@@ -118,8 +118,8 @@ class ExperimentRunner:
         self._bar: tqdm | None = None
         self._stop = threading.Event()
         self._live: dict[int, RunningStack] = {}
-        #: stacks whose processes exist but which may not be up yet, by job
-        self._starting: dict[int, Stack] = {}
+        #: each job's stack from the moment its processes exist (up or still starting) to the job's end
+        self._stacks: dict[int, Stack] = {}
         #: set by each job as its last act (after its stack stopped). Not ``Thread.is_alive()``:
         #: on CPython 3.11 a ``join`` interrupted by Ctrl-C marks a running thread as stopped, so
         #: the interpreter then exits without waiting for it and its services are orphaned.
@@ -178,7 +178,7 @@ class ExperimentRunner:
                             current = trial.stack()
                             running = resources.enter_context(open_stack(
                                 current, log_level=self.log_level, log_dir=self.out / "logs" / f"job{index}",
-                                on_start=lambda st: self._starting.__setitem__(index, st)))
+                                on_start=lambda st: self._stacks.__setitem__(index, st)))
                             tracer = TraceRecorder(running.bus, running.runner.drone_id)
                             self._live[index] = running
                         assert running is not None and tracer is not None
@@ -199,7 +199,7 @@ class ExperimentRunner:
             try:
                 resources.close()
             finally:
-                self._starting.pop(index, None)
+                self._stacks.pop(index, None)
                 self._finished[index].set()
 
     def _interrupt(self) -> None:
@@ -209,7 +209,7 @@ class ExperimentRunner:
             self.todo.clear()
         for running in list(self._live.values()):
             running.runner.abort()
-        for stack in [*(r.stack for r in list(self._live.values())), *list(self._starting.values())]:
+        for stack in list(self._stacks.values()):
             try:
                 stack.stop(grace_s=STOP_GRACE_S)  # one still starting then fails its wait, and its job ends
             except (RuntimeError, OSError) as exc:  # a job thread closing the same stack
@@ -223,8 +223,7 @@ class ExperimentRunner:
         sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
         sigterm = signal.signal(signal.SIGTERM, signal.SIG_IGN)
         try:
-            log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv",
-                        len(self._live) + len(self._starting))
+            log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv", len(self._stacks))
             while not all(done.is_set() or t.ident is None for done, t in zip(self._finished, threads, strict=True)):
                 self._interrupt()
                 time.sleep(JOIN_POLL_S)

@@ -133,6 +133,13 @@ def _spawn(args: tuple[str, int, int], prefixes: Sequence[str]) -> tuple[_Worker
     return proc, conn
 
 
+def _discard(proc: _WorkerProcess, conn: Connection) -> None:
+    """Kill a worker that is not (or no longer) in service and close its connection."""
+    proc.kill()
+    proc.join(timeout=2.0)
+    conn.close()
+
+
 class WorkerLlmBackend:
     """An :class:`~llmland_reasoner.llm.LlmBackend` whose model runs in a child process."""
 
@@ -166,8 +173,7 @@ class WorkerLlmBackend:
         self._wake = threading.Event()
         self._supervisor: threading.Thread | None = None
         self._prefixes = list(warm_prefixes)[-MAX_WARM_PREFIXES:]
-        self._pending: tuple[_WorkerProcess, Connection, list[str]] | None = (
-            *_spawn(self._args, self._prefixes), list(self._prefixes))
+        self._pending: tuple[_WorkerProcess, Connection] | None = _spawn(self._args, self._prefixes)
         if wait:
             self.wait_ready()
 
@@ -179,11 +185,9 @@ class WorkerLlmBackend:
         pending, self._pending = self._pending, None
         if pending is not None:
             try:
-                self._handshake(*pending)
+                self._handshake(*pending, list(self._prefixes))  # no call can add one before ready
             except BaseException:  # interrupted: never leave the worker behind
-                pending[0].kill()
-                pending[0].join(timeout=2.0)
-                pending[1].close()
+                _discard(*pending)
                 raise
         if self._state == "restarting":  # the model loaded, then the worker crashed: serve the fallback
             log.error("LLM worker lost: %s; answering with the conservative fallback until it restarts",
@@ -229,9 +233,7 @@ class WorkerLlmBackend:
         self._wake.set()
         pending, self._pending = self._pending, None
         if pending is not None:  # never waited for
-            pending[0].kill()
-            pending[0].join(timeout=2.0)
-            pending[1].close()
+            _discard(*pending)
         with self._state_lock:
             self._stop_worker(graceful=True)
 
@@ -311,9 +313,7 @@ class WorkerLlmBackend:
         self._handshake(*pending, prefixes)
 
     def _fail_start(self, proc: _WorkerProcess, parent: Connection, reason: str, state: str = "failed") -> None:
-        proc.kill()
-        proc.join(timeout=2.0)
-        parent.close()
+        _discard(proc, parent)
         with self._state_lock:
             self.last_error = reason
             self._state = state

@@ -74,21 +74,20 @@ class Resources:
         started = time.perf_counter()
         res = cls(settings=settings, kb=KnowledgeBase.load(settings.kb_path))
         # A worker process loads its model on the other core while this one loads the embedder.
-        backend = make_backend(settings, wait=False) if llm else None
+        t0 = time.perf_counter()
+        res.backend = make_backend(settings, wait=False) if llm else None
+        llm_s = time.perf_counter() - t0
         try:
             res._load_retrieval(settings, retrieval)
-            if backend is not None:
+            if isinstance(res.backend, WorkerLlmBackend):
                 t0 = time.perf_counter()
-                wait_ready = getattr(backend, "wait_ready", None)
-                if callable(wait_ready):
-                    wait_ready()
-                res.backend = backend
-                res.load_s["llm"] = time.perf_counter() - t0  # what was left to wait for
+                res.backend.wait_ready()
+                llm_s += time.perf_counter() - t0  # what was left to wait for
         except BaseException:
-            close = getattr(backend, "close", None)
-            if callable(close):
-                close()
+            res.close()
             raise
+        if llm:
+            res.load_s["llm"] = llm_s
         res.load_s["total"] = time.perf_counter() - started
         log.info("reasoner resources loaded: %s", {k: round(v, 2) for k, v in res.load_s.items()})
         return res
