@@ -82,6 +82,9 @@ class PlannerService:
     def _on_mission(self, _k: str, m: MissionGoal) -> None:
         if m.command == "stop" or m.target_m is None or m.start_m is None or m.episode_id == self.episode_id:
             return  # only the sim's resolved mission starts an episode here
+        # a search of the episode that ended may hold the tick thread (lockstep adoption): end it
+        # first, or the new episode waits for it under the tick lock (Replanner.cancel_search)
+        self.planner.paths.cancel_search()
         with self._tick_lock:
             self.planner.start(m)
             with self._inputs:

@@ -67,6 +67,8 @@ class _Job:
     wall_s: float = 0.0
     result: ActivePlan | None = None
     done: threading.Event = field(default_factory=threading.Event)
+    #: set to end the search early (its episode is over)
+    cancel: threading.Event = field(default_factory=threading.Event)
 
 
 def start_clearance_m(pos: FloatArray, regions: list[UnsafeRegion]) -> float:
@@ -107,8 +109,23 @@ class Replanner:
         self._last_replan_s = -1e9
         self._failed_in_row = 0
 
+    def cancel_search(self) -> None:
+        """End the running search, if any, at its next expansion (thread-safe; the tick that waits
+        for it in lockstep then reads a failed search).
+
+        Called when a new episode starts, before it waits for the tick thread: a search of the
+        episode that ended (up to ×16 the budget, ~10 s of wall time when the machine is loaded)
+        otherwise held the tick thread, and with it the new episode's start, for that long; the
+        sim read the silence as a dead planner and flew the new episode's first seconds on its
+        failsafe (Exp 1 conservative seed 8 at 25135e6: 25 s holding at the 2.5 m spawn height
+        while a pedestrian passed within 0.996 m)."""
+        job = self._job
+        if job is not None:
+            job.cancel.set()
+
     def start(self, lockstep: bool) -> None:
         """A new episode: forget plans; bound searches by expansions (lockstep) or wall time."""
+        self.cancel_search()
         s = self.settings
         self.lockstep = lockstep
         if lockstep:
@@ -194,7 +211,7 @@ class Replanner:
             cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m, floor_fn=floor_fn,
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
                           time_budget_s=self.search_cfg.time_budget_s * budget_scale)
-            path = plan(pos, vel, job.goal_m, regions, cfg)
+            path = plan(pos, vel, job.goal_m, regions, cfg, cancel=job.cancel)
             if path is None:
                 log.info("no path at t=%.1f s from %s to %s (floor %.1f m): %s", job.t0_s, np.round(pos, 1),
                          np.round(job.goal_m, 1), z_floor_m, where_blocked(pos, job.goal_m, regions))

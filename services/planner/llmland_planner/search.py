@@ -35,6 +35,7 @@ from __future__ import annotations
 import heapq
 import itertools
 import logging
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -262,11 +263,13 @@ def _accel_set(cfg: SearchConfig) -> FloatArray:
 
 
 def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
-         regions: list[UnsafeRegion], config: SearchConfig | None = None) -> Path | None:
+         regions: list[UnsafeRegion], config: SearchConfig | None = None, *,
+         cancel: threading.Event | None = None) -> Path | None:
     """Search a path from ``(start_p, start_v)`` (each ``(3,)``) to rest at ``goal_p (3,)``.
 
     Returns ``None`` when no path is found within ``max_expansions``/``time_budget_s``, or at once
-    when :func:`~.separation.separated` shows that none exists.
+    when :func:`~.separation.separated` shows that none exists, or once ``cancel`` is set (checked
+    before every expansion).
     """
     cfg = config or SearchConfig()
     p0, v0, goal = (np.asarray(x, dtype=float) for x in (start_p, start_v, goal_p))
@@ -274,15 +277,16 @@ def plan(start_p: ArrayLike, start_v: ArrayLike, goal_p: ArrayLike,
                  clearance_radius_m=cfg.clearance_radius_m, grid_res_m=cfg.grid_res_m, margin_m=cfg.grid_margin_m):
         log.info("search: no path can exist (start and goal separated by walls in plan view)")
         return None
-    return _Search(p0, v0, goal, regions, cfg).run()
+    return _Search(p0, v0, goal, regions, cfg, cancel).run()
 
 
 class _Search:
     """One kinodynamic A* search (paper §III-B): nodes, open heap and closed grid cells."""
 
     def __init__(self, p0: FloatArray, v0: FloatArray, goal: FloatArray, regions: list[UnsafeRegion],
-                 cfg: SearchConfig) -> None:
+                 cfg: SearchConfig, cancel: threading.Event | None = None) -> None:
         self.cfg, self.goal, self.regions = cfg, goal, regions
+        self.cancel = cancel or threading.Event()
         self.t_start = time.perf_counter()
         self.chk = _Checker(regions, p0, goal, cfg)
         self.free = _FreeDistance(regions, p0, goal, cfg)
@@ -321,6 +325,9 @@ class _Search:
                 continue
             self.closed.add(k)
             expansions += 1
+            if self.cancel.is_set():
+                log.info("search cancelled after %d expansions", expansions)
+                return None
             if expansions > cfg.max_expansions or time.perf_counter() - self.t_start > cfg.time_budget_s:
                 log.info("search gave up after %d expansions (%.1f ms)", expansions,
                          1e3 * (time.perf_counter() - self.t_start))

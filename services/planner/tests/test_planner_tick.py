@@ -32,7 +32,7 @@ def test_the_reach_floor_follows_the_vehicle_down_only_while_it_takes_off(monkey
     import llmland_planner.replanning as planner_module
 
     floors: list[float] = []
-    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg: floors.append(cfg.z_floor_m))
+    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg, **kw: floors.append(cfg.z_floor_m))
     pl = Planner()
     mpc_floors: list[float] = []
     solve = pl.mpc.solve
@@ -69,15 +69,11 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
 
     budgets: list[int] = []
 
-    def failing_plan(pos, vel, goal, regions, cfg):
+    def failing_plan(pos, vel, goal, regions, cfg, **kw):
         budgets.append(cfg.max_expansions)
         return None
 
-    monkeypatch.setattr(planner_module, "plan", failing_plan)
-    settings = PlannerSettings()
-    pl = Planner(settings)
-    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
-                         clock="lockstep"))
+    pl, settings = _lockstep_planner(monkeypatch, failing_plan)
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     t = 0.0
     while t < 3.0:
@@ -88,6 +84,18 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
     assert budgets[:6] == [base, 2 * base, 4 * base, 8 * base, cap, cap]
 
 
+def _lockstep_planner(monkeypatch, fake_plan):
+    """A lockstep planner (episode "e", baseline) whose searches are ``fake_plan``."""
+    import llmland_planner.replanning as planner_module
+
+    monkeypatch.setattr(planner_module, "plan", fake_plan)
+    settings = PlannerSettings()
+    pl = Planner(settings)
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
+                         clock="lockstep"))
+    return pl, settings
+
+
 def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypatch):
     """Back-to-back searches at ×16 budget made a lockstep episode take half an hour of wall time."""
     import llmland_planner.replanning as planner_module
@@ -95,15 +103,11 @@ def test_failures_at_the_full_budget_are_retried_once_per_replan_period(monkeypa
     starts: list[float] = []
     clock = {"t": 0.0}
 
-    def failing_plan(pos, vel, goal, regions, cfg):
+    def failing_plan(pos, vel, goal, regions, cfg, **kw):
         starts.append(clock["t"])
         return None
 
-    monkeypatch.setattr(planner_module, "plan", failing_plan)
-    settings = PlannerSettings()
-    pl = Planner(settings)
-    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
-                         clock="lockstep"))
+    pl, settings = _lockstep_planner(monkeypatch, failing_plan)
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     while clock["t"] < 6.0:
         pl.paths.maybe_replan(clock["t"], pos, vel, goal, [], z_floor_m=0.0)
@@ -240,3 +244,30 @@ def test_with_no_path_the_camera_turns_to_the_nearest_thing_of_unknown_class(met
     for k in range(40, 80):
         pl._steer_yaw(Phase.APPROACH, 0.05 * k, pos, goal, around, None)
     assert abs(math.remainder(pl._yaw_ref, 2 * math.pi)) < 0.05  # known now: back to the goal
+
+
+def test_a_new_episode_cancels_the_search_the_tick_thread_waits_for(monkeypatch):
+    """A search of the episode that ended must not hold the tick thread (and with it the next
+    episode's start) until it gives up: Exp 1 conservative seed 8 at 25135e6 spent its first 25 s
+    on the sim's failsafe at the 2.5 m spawn height, and a pedestrian passed within 0.996 m."""
+    import threading
+
+
+    began, cancelled = threading.Event(), []
+
+    def endless_plan(pos, vel, goal, regions, cfg, cancel=None, **kw):
+        began.set()
+        cancelled.append(cancel.wait(timeout=60.0))  # a search far over its budget
+        return None
+
+    pl, settings = _lockstep_planner(monkeypatch, endless_plan)
+    pos, goal = np.array([0.0, -9.0, 3.5]), np.array([0.0, 0.0, 3.5])
+    pl.paths.maybe_replan(0.0, pos, np.zeros(3), goal, [], z_floor_m=0.0)
+    assert began.wait(timeout=10.0)
+    waiter = threading.Thread(target=pl.paths.maybe_replan,
+                              args=(settings.search_budget_s, pos, np.zeros(3), goal, []), kwargs={"z_floor_m": 0.0})
+    waiter.start()  # the lockstep tick: waits for the search's fixed adoption time
+    pl.paths.cancel_search()  # what the service does when the next episode's mission arrives
+    waiter.join(timeout=30.0)
+    assert not waiter.is_alive()
+    assert cancelled == [True]  # ended by the cancel, not by its own 60 s

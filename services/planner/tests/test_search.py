@@ -195,3 +195,12 @@ def test_a_tall_region_wholly_outside_the_free_distance_grid_changes_no_distance
     alone = _FreeDistance([], START, GOAL, cfg)
     beside = _FreeDistance([far], START, GOAL, cfg)
     np.testing.assert_array_equal(beside.dist, alone.dist)
+
+
+def test_a_cancelled_search_returns_none_at_its_next_expansion() -> None:
+    import threading
+
+    cancel = threading.Event()
+    assert plan(START, np.zeros(3), GOAL, [], CFG, cancel=cancel) is not None  # free space
+    cancel.set()
+    assert plan(START, np.zeros(3), GOAL, [], CFG, cancel=cancel) is None

@@ -43,6 +43,9 @@ class SimSettings(BaseSettings):
     perception_timeout_s: float = 15.0
     #: Hold the last command this long (sim time) before the vehicle-side failsafe.
     command_hold_s: float = 0.2
+    #: The failsafe holds no lower than this (m) over the ground: above people's reach (people
+    #: here are 1.7 m tall; plus the 1 m hard limit, plus 0.8 m for a taller person and sag).
+    failsafe_min_height_m: float = 3.5
     #: Record every episode to this .rrd (may contain ``{episode_id}``) ...
     rrd: Path | None = None
     #: ... or stream live to a Rerun viewer, e.g. ``rerun+http://127.0.0.1:9876/proxy``.

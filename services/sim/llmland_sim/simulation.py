@@ -114,7 +114,8 @@ class Simulation:
         """Set the vehicle input for the next tick; returns True if the failsafe flew it.
 
         A missing command holds the previous one for ``command_hold_s``; after that the
-        vehicle-side failsafe holds position where commands were lost.
+        vehicle-side failsafe holds position where commands were lost, first climbing to
+        ``failsafe_min_height_m`` over the ground if it is lower (:meth:`_failsafe_target`).
         """
         assert self.quad is not None and self.score is not None
         self.score.observe_command(cmd, 1e3 / self.settings.ctrl_hz)
@@ -128,9 +129,26 @@ class Simulation:
         st = self.quad.state()
         if self._hold_target is None:
             self._hold_target = st.pos_m.copy()
-        rates, thrust = self._failsafe.update(st.pos_m, st.vel_mps, st.quat_xyzw, self._hold_target)
+        rates, thrust = self._failsafe.update(st.pos_m, st.vel_mps, st.quat_xyzw, self._failsafe_target())
         self.quad.set_command(rates, thrust)
         return True
+
+    def _failsafe_target(self) -> np.ndarray:
+        """Where the failsafe flies ``(3,)``: the hold point, raised to ``failsafe_min_height_m``
+        over the ground under it.
+
+        Without a planner the vehicle knows nothing about people, so it waits above their reach
+        (a person's height plus the 1 m limit, with margin), as a flight controller's return
+        mode climbs before it moves. Holding where commands were lost left a vehicle spawned at
+        2.5 m hovering at head height for 25 s while a pedestrian passed within 0.996 m (Exp 1
+        conservative seed 8 at 25135e6, the planner held up by the previous episode's search).
+        Assumption: nothing overhead within the climb (open sky above the hold point).
+        """
+        assert self._hold_target is not None and self.world is not None
+        target = self._hold_target.copy()
+        ground = self.world.ground_height(float(target[0]), float(target[1]))
+        target[2] = max(float(target[2]), ground + self.settings.failsafe_min_height_m)
+        return target
 
     def step(self) -> None:
         """Advance one control tick (``substeps`` physics steps), then score it."""
