@@ -93,7 +93,7 @@ class Simulation:
         self.mission = mission
         self.score = EpisodeScore(target_m=np.asarray(self.world.target_m, dtype=float))
         self._classes = {o.obj_id: o.cls for o in self.world.objects}
-        self._hold_target = start.copy()
+        self._hold_target = self._failsafe_target(start)
         self._last_cmd = None
         self._last_cmd_t = 0.0
         self.t_s = 0.0
@@ -128,14 +128,14 @@ class Simulation:
             return False
         st = self.quad.state()
         if self._hold_target is None:
-            self._hold_target = st.pos_m.copy()
-        rates, thrust = self._failsafe.update(st.pos_m, st.vel_mps, st.quat_xyzw, self._failsafe_target())
+            self._hold_target = self._failsafe_target(st.pos_m)
+        rates, thrust = self._failsafe.update(st.pos_m, st.vel_mps, st.quat_xyzw, self._hold_target)
         self.quad.set_command(rates, thrust)
         return True
 
-    def _failsafe_target(self) -> np.ndarray:
-        """Where the failsafe flies ``(3,)``: the hold point, raised to ``failsafe_min_height_m``
-        over the ground under it.
+    def _failsafe_target(self, hold_m: np.ndarray) -> np.ndarray:
+        """Where the failsafe flies ``(3,)`` to hold at ``hold_m (3,)``: that point, raised to
+        ``failsafe_min_height_m`` over the ground under it (set once, when the hold begins).
 
         Without a planner the vehicle knows nothing about people, so it waits above their reach
         (a person's height plus the 1 m limit, with margin), as a flight controller's return
@@ -144,8 +144,8 @@ class Simulation:
         conservative seed 8 at 25135e6, the planner held up by the previous episode's search).
         Assumption: nothing overhead within the climb (open sky above the hold point).
         """
-        assert self._hold_target is not None and self.world is not None
-        target = self._hold_target.copy()
+        assert self.world is not None
+        target = np.array(hold_m, dtype=float)
         ground = self.world.ground_height(float(target[0]), float(target[1]))
         target[2] = max(float(target[2]), ground + self.settings.failsafe_min_height_m)
         return target
