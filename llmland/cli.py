@@ -18,7 +18,7 @@ from llmland_schemas.bus import DEFAULT_ENDPOINT
 from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
 from llmland_schemas.service import configure_logging, shutdown_event
 
-from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint
+from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint, raise_keyboard_interrupt
 from .results import summarize, write_results_csv
 from .stacks import StackConfig, make_mission, open_stack
 from .view import add_view_parser
@@ -344,15 +344,11 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
     return 0
 
 
-def _interrupt_on_sigterm(_signum: int, _frame: object) -> None:
-    raise KeyboardInterrupt
-
-
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
     configure_logging(args.log_level)
     # SIGTERM unwinds like Ctrl-C, so every context manager stops the services it started
-    signal.signal(signal.SIGTERM, _interrupt_on_sigterm)
+    signal.signal(signal.SIGTERM, raise_keyboard_interrupt)
     try:
         sys.exit(args.func(args))
     except KeyboardInterrupt:

@@ -21,7 +21,8 @@ import sys
 import threading
 import time
 from collections import Counter
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +67,44 @@ def hub_endpoint(port: int) -> str:
 def alive_key(name: str, drone_id: str) -> str:
     """The liveliness key service ``name`` of drone ``drone_id`` declares."""
     return ground_alive(name) if name in SHARED_SERVICES else alive(drone_id, name)
+
+
+#: the signals a user stops the CLI with (Ctrl-C, ``kill``)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def raise_keyboard_interrupt(_signum: int, _frame: object) -> None:
+    """Signal handler: SIGTERM unwinds like Ctrl-C, so every context manager stops what it started."""
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def stop_signals_deferred() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM while services are being stopped, and deliver them afterwards.
+
+    A stop that a second signal interrupts leaves every service it had not yet reached running,
+    orphaned (seen with ``timeout … llmland land`` and ``pkill -f``, which signal both ``timeout``,
+    which forwards it, and the CLI). Signals reach only the main thread in CPython, so elsewhere
+    this does nothing. Each held signal is raised once on exit, through the handler that was in
+    place before (``KeyboardInterrupt`` for the CLI's).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+
+    def hold(signum: int, _frame: object) -> None:
+        log.warning("signal %d while stopping services: delivered once they are stopped", signum)
+        held.append(signum)
+
+    previous = {s: signal.signal(s, hold) for s in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for stop_signal, handler in previous.items():
+            signal.signal(stop_signal, handler if handler is not None else signal.SIG_DFL)
+        for signum in dict.fromkeys(held):
+            signal.raise_signal(signum)
 
 
 class Stack:
@@ -134,7 +173,12 @@ class Stack:
 
     def stop(self, grace_s: float = 5.0) -> None:
         """SIGTERM every service's process group, SIGKILL after ``grace_s``. Safe to call from
-        several threads at once (an interrupted experiment stops stacks its jobs are closing)."""
+        several threads at once (an interrupted experiment stops stacks its jobs are closing).
+        Ctrl-C and SIGTERM wait until every service is stopped (:func:`stop_signals_deferred`)."""
+        with stop_signals_deferred():
+            self._stop(grace_s)
+
+    def _stop(self, grace_s: float) -> None:
         with self._stop_lock:
             self._stopped.set()
             procs, files = dict(self.procs), list(self._files)
@@ -207,11 +251,12 @@ class Fleet:
                 st.wait_alive(bus, timeout_s=max(1.0, deadline - time.monotonic()))
 
     def stop(self, grace_s: float = 5.0) -> None:
-        for proc in self.procs().values():  # every process at once, then wait for each
-            if proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGTERM)
-        for st in reversed(self.stacks):
-            st.stop(grace_s)
+        with stop_signals_deferred():
+            for proc in self.procs().values():  # every process at once, then wait for each
+                if proc.poll() is None:
+                    os.killpg(proc.pid, signal.SIGTERM)
+            for st in reversed(self.stacks):
+                st.stop(grace_s)
 
     def __enter__(self) -> Fleet:
         return self

@@ -23,7 +23,7 @@ from llmland_schemas import EpisodeResult
 from tqdm import tqdm
 from tqdm.contrib.logging import logging_redirect_tqdm
 
-from ..launch import Stack
+from ..launch import Stack, raise_keyboard_interrupt, stop_signals_deferred
 from ..stacks import RunningStack, StackConfig, make_mission, open_stack
 from .plan import Trial
 from .traces import TraceRecorder
@@ -85,10 +85,6 @@ def read_rows(path: Path) -> list[dict[str, str]]:
         return []
     with path.open(newline="") as fh:
         return list(csv.DictReader(fh))
-
-
-def _raise_interrupt(_signum: int, _frame: object) -> None:
-    raise KeyboardInterrupt
 
 
 def row_key(row: dict[str, Any]) -> tuple[str, str, str, int]:
@@ -218,18 +214,13 @@ class ExperimentRunner:
     def _stop_all(self, threads: list[threading.Thread]) -> None:
         """Stop every stack and wait until every job has ended (a job whose thread never started,
         the interrupt having come while starting them, has nothing to stop). A second Ctrl-C or
-        SIGTERM meanwhile is ignored: leaving now would orphan the services still being stopped
-        (seconds)."""
-        sigint = signal.signal(signal.SIGINT, signal.SIG_IGN)
-        sigterm = signal.signal(signal.SIGTERM, signal.SIG_IGN)
-        try:
+        SIGTERM meanwhile waits until then: leaving now would orphan the services still being
+        stopped (seconds)."""
+        with stop_signals_deferred():
             log.warning("interrupted: stopping %d stack(s); --resume continues from trials.csv", len(self._stacks))
             while not all(done.is_set() or t.ident is None for done, t in zip(self._finished, threads, strict=True)):
                 self._interrupt()
                 time.sleep(JOIN_POLL_S)
-        finally:
-            signal.signal(signal.SIGINT, sigint)
-            signal.signal(signal.SIGTERM, sigterm)
 
     def run(self) -> float:
         """Fly every trial still to do; returns the wall time (s)."""
@@ -241,7 +232,7 @@ class ExperimentRunner:
             self._bar = bar
             self._finished = [threading.Event() for _ in range(self.jobs)]
             threads = [threading.Thread(target=self._job, args=(i,), name=f"job{i}") for i in range(self.jobs)]
-            previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+            previous = signal.signal(signal.SIGTERM, raise_keyboard_interrupt)
             try:
                 for t in threads:
                     t.start()
