@@ -204,3 +204,32 @@ def test_a_cancelled_search_returns_none_at_its_next_expansion() -> None:
     assert plan(START, np.zeros(3), GOAL, [], CFG, cancel=cancel) is not None  # free space
     cancel.set()
     assert plan(START, np.zeros(3), GOAL, [], CFG, cancel=cancel) is None
+
+
+#: a keep-out too tall to fly over, 8.4 m wide, between the start and the goal (open_field seed
+#: 34's tree, as the planner keeps it out with its unseen top)
+WIDE_WALL = UnsafeRegion(np.array([0.7, -7.8, -1.0]), np.array([9.0, 1.1, 10.5]))
+WALL_CFG = SearchConfig(time_budget_s=float("inf"), max_expansions=20000, workspace_hi=(100.0, 100.0, 10.0),
+                        clearance_radius_m=0.8)
+
+
+@pytest.mark.parametrize("face_x", [9.05, 9.2, 9.4])
+def test_beside_a_tall_wall_the_free_distance_is_the_way_round_not_the_straight_line(face_x: float) -> None:
+    # the grid blocks every cell the wall touches, up to one cell past its face; a point there
+    # once fell back to the straight line through the wall: a hole in the heuristic along the face
+    start, goal = np.array([9.6, -4.4, 3.5]), np.array([-0.1, -0.3, 4.0])
+    free = _FreeDistance([WIDE_WALL], start, goal, WALL_CFG)
+    beside = np.array([[face_x, -1.0, 3.5]])  # along the face, away from the start's clearance ball
+    way_round = np.hypot(face_x - 9.0, 2.1) + 8.3 + np.hypot(0.8, 1.4)  # round the north-east corner (the shorter)
+    assert free(beside)[0] >= way_round - 2.0 * WALL_CFG.grid_res_m
+    assert free(beside)[0] > np.linalg.norm(beside[0, :2] - goal[:2]) + 2.0  # not through the wall
+
+
+def test_a_way_round_a_wide_tall_wall_from_its_face_is_found_within_the_first_budget() -> None:
+    # open_field seed 34 (llm-land): starting at the face of a tree's keep-out, every search failed
+    # at every budget up to ×16 (6,400 expansions) for the 90 s of the episode
+    start, goal = np.array([9.2, -4.4, 3.5]), np.array([-0.1, -0.3, 4.0])
+    path = plan(start, np.zeros(3), goal, [WIDE_WALL], WALL_CFG)
+    assert path is not None
+    _assert_clear(path, [WIDE_WALL], WALL_CFG)
+    assert path.expansions <= 400, path.expansions  # the lockstep budget of a first search
