@@ -84,6 +84,30 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
     assert budgets[:6] == [base, 2 * base, 4 * base, 8 * base, cap, cap]
 
 
+def test_a_new_episode_searches_with_the_first_budget_whatever_the_last_one_failed(monkeypatch):
+    """The failures in a row of the episode before once set the next episode's first budgets
+    (open_field seed 22, baseline, flew another episode after seed 21 than alone)."""
+    budgets: list[int] = []
+
+    def failing_plan(pos, vel, goal, regions, cfg, **kw):
+        budgets.append(cfg.max_expansions)
+        return None
+
+    pl, settings = _lockstep_planner(monkeypatch, failing_plan)
+    pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
+    for k in range(4):
+        pl.paths.maybe_replan(k * settings.search_budget_s, pos, vel, goal, [], z_floor_m=0.0)
+    assert pl.paths.search_budget_scale() > 1 and pl.paths.failed_searches > 0
+    pl.paths.force_replan = True
+    pl.start(MissionGoal(episode_id="e2", method="baseline", start_m=(0, -9, 3.5), target_m=(0, 0, 0),
+                         clock="lockstep"))
+    assert pl.paths.search_budget_scale() == 1
+    assert pl.paths.failed_searches == 0 and not pl.paths.force_replan
+    budgets.clear()
+    pl.paths.maybe_replan(0.0, pos, vel, goal, [], z_floor_m=0.0)
+    assert budgets == [settings.search_max_expansions]
+
+
 def _lockstep_planner(monkeypatch, fake_plan):
     """A lockstep planner (episode "e", baseline) whose searches are ``fake_plan``."""
     import llmland_planner.replanning as planner_module
