@@ -127,9 +127,13 @@ class MpcController:
         self.u_prev = self.params.u_hover.copy()
 
     def reset(self) -> None:
-        """Forget the warm-start trajectory and the previous input."""
+        """Forget the warm-start trajectory, the previous input and the solver: a solver updated
+        from the last episode's QPs answers the same QP up to ~1e-12 differently from a new one,
+        and a closed loop can grow that into another episode (the same seed must fly the same
+        episode whatever the planner flew before)."""
         self._x_guess = self._u_guess = None
         self.u_prev = self.params.u_hover.copy()
+        self._solver = None
 
     def problem_matrices(self) -> QpData:
         """The QP of the last tick (copies), for checking with an independent solver."""
