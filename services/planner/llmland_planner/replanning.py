@@ -102,12 +102,18 @@ class Replanner:
         self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
         self.lockstep = False
         self.active: ActivePlan | None = None
+        self._job: _Job | None = None
+        self._forget_episode()
+
+    def _forget_episode(self) -> None:
+        """Every piece of per-episode state, in one place: what one episode leaves here must not
+        change the next (the same seed flies the same episode whatever the stack flew before)."""
+        self.active, self._job = None, None
+        self._last_replan_s = -1e9
         self.failed_searches = 0
+        self._failed_in_row = 0
         #: replan at the next tick (the vehicle left its corridor)
         self.force_replan = False
-        self._job: _Job | None = None
-        self._last_replan_s = -1e9
-        self._failed_in_row = 0
 
     def cancel_search(self) -> None:
         """End the running search, if any, at its next expansion (thread-safe; the tick that waits
@@ -129,9 +135,8 @@ class Replanner:
 
         Every count a search's budget depends on starts again here: the failures in a row of the
         episode before used to carry over, so the first searches of the next episode in the same
-        stack got up to ×16 the budget and flew other paths (open_field seed 22, baseline, after
-        seed 21: landed 12 s sooner than when flown first, a close call at 0.83 m); the same
-        seed must fly the same episode whatever the stack flew before."""
+        stack got up to ×16 the budget (found while chasing why open_field seed 22 flew another
+        episode after seed 21; that one was the MPC's solver, :meth:`MpcController.reset`)."""
         self.cancel_search()
         s = self.settings
         self.lockstep = lockstep
@@ -141,11 +146,7 @@ class Replanner:
         else:
             self.search_cfg = replace(self.search_cfg, time_budget_s=s.search_budget_s,
                                       max_expansions=SearchConfig.max_expansions)
-        self.active, self._job = None, None
-        self._last_replan_s = -1e9
-        self.failed_searches = 0
-        self._failed_in_row = 0
-        self.force_replan = False
+        self._forget_episode()
 
     def maybe_replan(self, t: float, pos: FloatArray, vel: FloatArray, goal: FloatArray,
                      regions: list[UnsafeRegion], z_floor_m: float,

@@ -68,12 +68,7 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
     import llmland_planner.replanning as planner_module
 
     budgets: list[int] = []
-
-    def failing_plan(pos, vel, goal, regions, cfg, **kw):
-        budgets.append(cfg.max_expansions)
-        return None
-
-    pl, settings = _lockstep_planner(monkeypatch, failing_plan)
+    pl, settings = _lockstep_planner(monkeypatch, _failing_plan_recording(budgets))
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     t = 0.0
     while t < 3.0:
@@ -85,15 +80,9 @@ def test_failed_searches_in_a_row_double_the_next_budget(monkeypatch):
 
 
 def test_a_new_episode_searches_with_the_first_budget_whatever_the_last_one_failed(monkeypatch):
-    """The failures in a row of the episode before once set the next episode's first budgets
-    (open_field seed 22, baseline, flew another episode after seed 21 than alone)."""
+    """The failures in a row of the episode before once set the next episode's first budgets."""
     budgets: list[int] = []
-
-    def failing_plan(pos, vel, goal, regions, cfg, **kw):
-        budgets.append(cfg.max_expansions)
-        return None
-
-    pl, settings = _lockstep_planner(monkeypatch, failing_plan)
+    pl, settings = _lockstep_planner(monkeypatch, _failing_plan_recording(budgets))
     pos, vel, goal = np.array([0.0, -9.0, 3.5]), np.zeros(3), np.array([0.0, 0.0, 3.5])
     for k in range(4):
         pl.paths.maybe_replan(k * settings.search_budget_s, pos, vel, goal, [], z_floor_m=0.0)
@@ -106,6 +95,16 @@ def test_a_new_episode_searches_with_the_first_budget_whatever_the_last_one_fail
     budgets.clear()
     pl.paths.maybe_replan(0.0, pos, vel, goal, [], z_floor_m=0.0)
     assert budgets == [settings.search_max_expansions]
+
+
+def _failing_plan_recording(budgets: list[int]):
+    """A search that always fails, recording the expansion budget it was given."""
+
+    def failing_plan(pos, vel, goal, regions, cfg, **kw):
+        budgets.append(cfg.max_expansions)
+        return None
+
+    return failing_plan
 
 
 def _lockstep_planner(monkeypatch, fake_plan):
@@ -275,7 +274,6 @@ def test_a_new_episode_cancels_the_search_the_tick_thread_waits_for(monkeypatch)
     episode's start) until it gives up: Exp 1 conservative seed 8 at 25135e6 spent its first 25 s
     on the sim's failsafe at the 2.5 m spawn height, and a pedestrian passed within 0.996 m."""
     import threading
-
 
     began, cancelled = threading.Event(), []
 
