@@ -20,7 +20,9 @@ def test_services_survive_garbage_and_still_fly(hub, stack_factory, tmp_path: Pa
     stack.wait_alive(hub)
     for topic in (Topic.MISSION, Topic.COMMAND, Topic.STATE, Topic.PLAN, Topic.SCENE, Topic.SPEC):
         for payload in GARBAGE:
-            hub.publish_bytes(key("d0", topic), payload)
+            # block: a burst of 36 messages (six of 10 kB) may fill Zenoh's queue, and a droppable
+            # put would then lose one before the service could count it
+            hub.publish_bytes(key("d0", topic), payload, block=True)
     time.sleep(1.0)
     for name, proc in stack.procs.items():
         assert proc.poll() is None, f"{name} died on garbage"
