@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import shutil
 import subprocess
@@ -93,8 +94,6 @@ def test_a_seed_flies_the_same_episode_after_another_one_in_the_same_stack(tmp_p
     and landed (1.81 m) when flown first: the planner kept its QP solver across episodes, whose
     answers differed by ~1e-12 from a new one's, and the closed loop grew that into another
     episode. Experiments reuse a stack per job, so their rows depended on the seed flown before."""
-    import csv
-
     proc = run_cli("trials", "--method", "baseline", "--pedestrians", "1", "--seeds", "21,22",
                    "--out", str(tmp_path / "after"))
     assert proc.returncode == 0, proc.stderr[-3000:]

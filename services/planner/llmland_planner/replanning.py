@@ -101,8 +101,8 @@ class Replanner:
         workspace_hi = (WORKSPACE_HALF_XY_M, WORKSPACE_HALF_XY_M, s.max_altitude_m)
         self.search_cfg = SearchConfig(time_budget_s=s.search_budget_s, workspace_hi=workspace_hi)
         self.lockstep = False
-        self.active: ActivePlan | None = None
-        self._job: _Job | None = None
+        self.active: ActivePlan | None  # set, with the rest of an episode's state, below
+        self._job: _Job | None
         self._forget_episode()
 
     def _forget_episode(self) -> None:
