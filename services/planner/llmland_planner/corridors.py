@@ -183,7 +183,9 @@ def corridors_for_path(path: Path, regions: list[UnsafeRegion], max_halfspaces: 
                 cor = corridor_for_segment(a, b, regions, 0.0, kappa_m, 10_000)
                 assert cor is not None
             if not cor.segment_clear:
-                log.info("path chord %s→%s touches an unsafe region", a, b)
+                # routine while a region grows over the planned path (replanning follows): DEBUG,
+                # not INFO, or it floods the service log (about 20 lines per sim second then)
+                log.debug("path chord %s→%s touches an unsafe region", a, b)
             cor.t0, cor.t1 = t0, t1
             result.append(cor)
     return result

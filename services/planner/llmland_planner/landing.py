@@ -34,7 +34,7 @@ from llmland_schemas.arrays import FloatArray
 from .descent import DescentProfile
 from .ground import ReachFloor
 from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
-from .regions import UnsafeRegion
+from .regions import UNSEEN_TOP, UnsafeRegion
 from .settings import PlannerSettings
 
 #: arrived at a hover point: within this height (m) of it and slower than this (m/s)
@@ -44,6 +44,8 @@ ARRIVE_SPEED_MPS = 0.5
 HOVER_REGION_CLEARANCE_M = 0.5
 #: lost the hover point: farther than this (m) horizontally goes back to approach
 HOLD_LOST_M = 1.7
+#: heights (m) tried for a lowered hold (the coverage table's height step, coverage.HEIGHT_STEP_M)
+HOLD_HEIGHT_STEP_M = 0.1
 
 
 class Phase(StrEnum):
@@ -71,6 +73,9 @@ class Surroundings:
     #: the hard limit's floor (m) at plan-view points ``(..., 2)``: out of everyone's reach over the
     #: terrain (:class:`~.ground.ReachFloor`); None: flat ground, ``REACH_CEILING_M`` over the target
     reach_floor: ReachFloor | None = None
+    #: radius (m) about the landing point that the downward camera would cover from a hover at a
+    #: given height (m) above the target (None: unknown; :meth:`LandingLogic.observation_height_m`)
+    coverage_at: Callable[[float], float] | None = None
 
     def floor_at(self, xy: FloatArray) -> float:
         """The reach floor (m) at one plan-view point ``(2,)``, or -inf when none is given."""
@@ -107,17 +112,24 @@ def disc_clear(target_xy: FloatArray, radius_m: float, regions: list[UnsafeRegio
     return True
 
 
-def hover_altitude(target_m: FloatArray, regions: list[UnsafeRegion], settings: PlannerSettings) -> float:
+def hover_altitude(target_m: FloatArray, regions: list[UnsafeRegion], settings: PlannerSettings, *,
+                   footprints_only: bool = False) -> float:
     """Cruise altitude above the target, raised over any region that covers the hover point and can
     be overflown (one too tall to overfly cannot be honoured by height; the world model keeps
-    still ones off the landing disc)."""
+    still ones off the landing disc).
+
+    ``footprints_only``: raise only over regions whose footprint itself covers the target (the box
+    less its horizontal buffer) and over boxes guessed above a view cut at the top (what may reach
+    over the target there is unknown), not over those that cover it with their buffer alone: the
+    height the vertical column above the target must keep (:meth:`LandingLogic.update`)."""
     t = np.asarray(target_m, dtype=float)
     z = t[2] + settings.cruise_altitude_m
     ceiling = t[2] + settings.max_altitude_m - HOVER_REGION_CLEARANCE_M
     for r in regions:
         if float(r.hi[2]) + HOVER_REGION_CLEARANCE_M > ceiling:
             continue
-        if np.all(t[:2] >= r.lo[:2]) and np.all(t[:2] <= r.hi[:2]):
+        grow = 0.0 if not footprints_only or r.meta.get(UNSEEN_TOP) else r.buffer_m
+        if np.all(t[:2] >= r.lo[:2] + grow) and np.all(t[:2] <= r.hi[:2] - grow):
             z = max(z, float(r.hi[2]) + HOVER_REGION_CLEARANCE_M)
     return z
 
@@ -133,6 +145,10 @@ class LandingLogic:
     last_gate: GateDecision | None = None
     #: coverage radius (m) of the last uncommitted gate, the one a descent was committed on
     commit_coverage_m: float = math.inf
+    #: the approach's hover height (z, m: over every region holding the target) and the height the
+    #: vehicle holds and starts its descent at (lower when the coverage needs it; see ``update``)
+    approach_z: float = math.nan
+    hold_z: float = math.nan
     profile: DescentProfile = field(init=False)
     bounds: HumanMotionBounds = field(init=False)
 
@@ -178,13 +194,64 @@ class LandingLogic:
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate
 
+    @property
+    def lowered_hold(self) -> bool:
+        """True when the vehicle holds below the approach's hover height (:meth:`update`)."""
+        return bool(self.hold_z < self.approach_z - ARRIVE_HEIGHT_TOL_M)
+
+    def observation_height_m(self, top_m: float, around: Surroundings) -> float | None:
+        """The highest hold height (m above the target, a multiple of ``HOLD_HEIGHT_STEP_M`` from
+        ``top_m`` down to the cruise altitude) from which the gate's untracked-people bound can pass:
+        the coverage radius there is at least what anyone outside it could walk before touchdown
+        (:func:`~.hard_limit.commit_clearance` with nobody tracked), at both ends of the arrival
+        tolerance. None when no height passes (or the coverage is unknown)."""
+        s = self.settings
+        if around.coverage_at is None or not s.require_coverage:
+            return None
+        h = top_m
+        while h >= s.cruise_altitude_m - 1e-9:
+            if all(commit_clearance(self.target_m[:2], [], self.descent_duration_s(z, 0.0), self.bounds,
+                                    coverage_m=around.coverage_at(z), unseen_s=s.coverage_frame_period_s,
+                                    xy_margin_m=s.landing_xy_margin_m).safe
+                   for z in (h - ARRIVE_HEIGHT_TOL_M, h + ARRIVE_HEIGHT_TOL_M)):
+                return h
+            h -= HOLD_HEIGHT_STEP_M
+        return None
+
+    def _hold_heights(self, around: Surroundings) -> tuple[float, float]:
+        """The approach's hover height and the hold height (z, m).
+
+        The approach ends above every region that holds the target (:func:`hover_altitude`). The
+        downward camera's coverage collapses above a few metres (a person's torso seen from high up
+        covers too few pixels to be detected for sure; :mod:`.coverage`), and with no coverage the
+        hard-limit gate can never open. So the vehicle then holds lower, straight above the
+        target, at the highest height from which the gate can pass
+        (:meth:`observation_height_m`), though never lower than what covers the target with its
+        footprint (``footprints_only``) nor under the reach floor. What it leaves above it there is
+        only the keep-out of regions that hold the target with their buffer, not the thing itself:
+        the final descent passes there anyway, the column above the landing point being clear of
+        still things' footprints (the gate's disc check)."""
+        s, tgt = self.settings, np.asarray(self.target_m, dtype=float)
+        floor = around.floor_at(tgt)
+        approach = max(hover_altitude(tgt, around.regions, s), floor)
+        if approach <= tgt[2] + s.cruise_altitude_m + ARRIVE_HEIGHT_TOL_M:
+            return approach, approach
+        kept = max(hover_altitude(tgt, around.regions, s, footprints_only=True), floor)
+        if kept >= approach - ARRIVE_HEIGHT_TOL_M:
+            return approach, approach
+        top = math.floor((approach - tgt[2]) / HOLD_HEIGHT_STEP_M) * HOLD_HEIGHT_STEP_M
+        seen = self.observation_height_m(top, around)
+        return approach, approach if seen is None else max(kept, tgt[2] + seen)
+
     def update(self, pos_m: FloatArray, vel_mps: FloatArray, t_s: float,
                around: Surroundings) -> tuple[Phase, FloatArray]:
         s = self.settings
         tgt = np.asarray(self.target_m, dtype=float)
         pos, vel = np.asarray(pos_m, dtype=float), np.asarray(vel_mps, dtype=float)
         # never below the reach floor over the target (terrain rising around it)
-        hover = np.array([tgt[0], tgt[1], max(hover_altitude(tgt, around.regions, s), around.floor_at(tgt))])
+        self.approach_z, self.hold_z = self._hold_heights(around)
+        approach = np.array([tgt[0], tgt[1], self.approach_z])
+        hover = np.array([tgt[0], tgt[1], self.hold_z])
         height = float(pos[2] - tgt[2])
         horiz = float(np.linalg.norm(pos[:2] - tgt[:2]))
 
@@ -205,14 +272,19 @@ class LandingLogic:
                 self.climbed = True
             else:
                 return self.phase, np.array([pos[0], pos[1], climb_z])
-        arrived = (horiz < s.align_radius_m and abs(pos[2] - hover[2]) < ARRIVE_HEIGHT_TOL_M
-                   and float(np.linalg.norm(vel)) < ARRIVE_SPEED_MPS)
-        if self.phase in (Phase.APPROACH, Phase.CLIMB_OUT) and arrived:
-            self.phase = Phase.HOLD
+
+        def arrived_at(point: FloatArray) -> bool:
+            return (horiz < s.align_radius_m and abs(pos[2] - point[2]) < ARRIVE_HEIGHT_TOL_M
+                    and float(np.linalg.norm(vel)) < ARRIVE_SPEED_MPS)
+
+        arrived = arrived_at(hover)
+        if self.phase in (Phase.APPROACH, Phase.CLIMB_OUT) and (arrived or (
+                self.phase == Phase.APPROACH and arrived_at(approach))):
+            self.phase = Phase.HOLD  # a lowered hold is reached straight down from the approach's end
         if self.phase == Phase.HOLD:
             if arrived and self.gate(height, max(0.0, -float(vel[2])), around).open:
                 self.phase = Phase.DESCEND
                 return self.phase, tgt
             if horiz > HOLD_LOST_M:
                 self.phase = Phase.APPROACH
-        return self.phase, hover
+        return self.phase, approach if self.phase == Phase.APPROACH else hover

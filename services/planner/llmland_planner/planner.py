@@ -25,7 +25,7 @@ from llmland_schemas import (
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.frames import CameraFrame
 
-from .coverage import detection_radius_m
+from .coverage import TILT_STEP_RAD, detection_radius_m
 from .dynamics import ModelParams
 from .hard_limit import REACH_CEILING_M
 from .landing import HOLD_LOST_M, LandingLogic, Phase, Surroundings
@@ -138,9 +138,16 @@ class Planner:
                                         min_points=s.down_blob_min_points, torso=self._torso)
             return max(0.0, radius - off_target)
 
+        def coverage_at(height_m: float) -> float:
+            """From a hover straight above the target (a hover's tilt: under one table step)."""
+            return 0.0 if intrinsics is None else detection_radius_m(
+                intrinsics, height_m, TILT_STEP_RAD, stride=s.down_blob_stride, min_points=s.down_blob_min_points,
+                torso=self._torso)
+
         age = 0.0 if w.last_down_stamp_s is None else max(0.0, t - w.last_down_stamp_s)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration),
-                            coverage_age_s=age, reach_floor=w.reach_floor(REACH_CEILING_M + REACH_FLOOR_MARGIN_M))
+                            coverage_age_s=age, reach_floor=w.reach_floor(REACH_CEILING_M + REACH_FLOOR_MARGIN_M),
+                            coverage_at=coverage_at)
 
     def tick(self, state: VehicleState) -> TickOutput:
         t_tick = time.perf_counter()
@@ -153,7 +160,7 @@ class Planner:
             self.world.release_specs(t, state.specs_released_upto_s, lockstep=self._lockstep)
             around = self._surroundings(t, pos, float(np.hypot(euler[0], euler[1])))
         phase, goal = self.landing.update(pos, vel, t, around)
-        self._log_phase(phase, t, around)
+        self._log_phase(phase, t, float(pos[2] - self.landing.target_m[2]), around)
         regions = around.regions
         ahead = self.paths.look_ahead_m(pos, YAW_LOOK_AHEAD_M) if phase == Phase.APPROACH else None
         self._steer_yaw(phase, t, pos, goal, around, ahead)
@@ -161,7 +168,8 @@ class Planner:
             pos, float(euler[2]), ahead, self.world.forward_half_azimuth_rad, YAW_ALONG_PATH_MIN_M)
         snapshot = None
         halfspaces = None
-        if phase in (Phase.DESCEND, Phase.CLIMB_OUT, Phase.TOUCHDOWN):
+        if phase in (Phase.DESCEND, Phase.CLIMB_OUT, Phase.TOUCHDOWN) or (
+                phase == Phase.HOLD and self.landing.lowered_hold):  # a lowered hold: straight down into it
             ref_pos, ref_vel = self._vertical_reference(phase, pos, vel, goal)
             self.paths.active = None
         else:
@@ -192,8 +200,9 @@ class Planner:
         return TickOutput(res.u0[:3].copy(), float(res.u0[3]), mode, res,
                           1e3 * (time.perf_counter() - t_tick), snapshot)
 
-    def _log_phase(self, phase: Phase, t: float, around: Surroundings) -> None:
-        """Phase changes, and every ``GATE_LOG_PERIOD_S`` while holding why the gate is closed."""
+    def _log_phase(self, phase: Phase, t: float, height_m: float, around: Surroundings) -> None:
+        """Phase changes, and every ``GATE_LOG_PERIOD_S`` while holding why the gate is closed
+        (``height_m``: the vehicle's height above the target)."""
         if self.landing is None:
             return
         gate = self.landing.last_gate
@@ -212,8 +221,9 @@ class Planner:
             binding = f"{who.label or 'unknown'} {who.track_id} at {dist:.1f} m"
         else:
             binding = "nobody"
-        log.info("t=%.1f %s: hard-limit margin %.2f m (%s), landing disc %s, %d possible people", t, phase.value,
-                 gate.clearance.margin_m, binding, "clear" if gate.disc_clear else "blocked", len(around.people))
+        log.info("t=%.1f %s at %.1f m: hard-limit margin %.2f m (%s), landing disc %s, %d possible people", t,
+                 phase.value, height_m, gate.clearance.margin_m, binding, "clear" if gate.disc_clear else "blocked",
+                 len(around.people))
 
     def _reach_floor(self, pos: FloatArray, around: Surroundings, ref_pos: FloatArray | None = None) -> float:
         """Lowest altitude (m) for paths and holds outside the final descent: above everyone's reach
@@ -241,7 +251,8 @@ class Planner:
 
     def _vertical_reference(self, phase: Phase, pos: FloatArray, vel: FloatArray,
                             goal: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Straight down the descent profile, or straight up to the hover point (``(N+1, 3)`` each)."""
+        """Straight down the descent profile, or straight up or down to the hold point at the climb
+        speed (``(N+1, 3)`` each)."""
         assert self.landing is not None
         n, dt = self.settings.horizon, self.settings.mpc_dt_s
         ground = float(self.landing.target_m[2])
@@ -249,9 +260,10 @@ class Planner:
             h, sink = self.landing.profile.reference(float(pos[2]) - ground, max(0.0, -float(vel[2])), dt, n + 2)
             z, vz = ground + h[1:], -sink[1:]
         else:
-            climb = self.settings.climb_speed_mps
-            z = np.minimum(float(pos[2]) + climb * dt * np.arange(1, n + 2), float(goal[2]))
-            vz = np.where(z < float(goal[2]), climb, 0.0)
+            climb, z0, z_goal = self.settings.climb_speed_mps, float(pos[2]), float(goal[2])
+            direction = 1.0 if z_goal >= z0 else -1.0
+            z = z0 + direction * np.minimum(climb * dt * np.arange(1, n + 2), abs(z_goal - z0))
+            vz = np.where(np.abs(z - z_goal) > 1e-9, direction * climb, 0.0)
         ref_pos = np.column_stack([np.full(n + 1, goal[0]), np.full(n + 1, goal[1]), z])
         ref_vel = np.column_stack([np.zeros(n + 1), np.zeros(n + 1), vz])
         return ref_pos, ref_vel

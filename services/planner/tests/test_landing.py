@@ -5,8 +5,15 @@ import numpy as np
 import pytest
 from llmland_planner.ground import ReachFloor
 from llmland_planner.hard_limit import REACH_CEILING_M, PersonHypothesis, commit_clearance
-from llmland_planner.landing import LandingLogic, Phase, Surroundings, disc_clear, hover_altitude
-from llmland_planner.regions import UnsafeRegion
+from llmland_planner.landing import (
+    ARRIVE_HEIGHT_TOL_M,
+    LandingLogic,
+    Phase,
+    Surroundings,
+    disc_clear,
+    hover_altitude,
+)
+from llmland_planner.regions import UNSEEN_TOP, UnsafeRegion
 from llmland_planner.settings import PlannerSettings
 
 TARGET = np.array([0.0, 0.0, 0.0])
@@ -162,3 +169,67 @@ def test_the_take_off_climb_and_the_hover_stay_above_the_reach_floor() -> None:
     assert not logic.climbed  # at the cruise altitude, still within reach of the mound
     phase, goal = logic.update(np.array([8.0, 0.0, floor + 0.05]), STILL, 2.0, around)
     assert logic.climbed and np.allclose(goal, [0.0, 0.0, floor])
+
+
+def _buffered(top: float, core_half: float = 1.0, buffer_m: float = 5.0, x: float = 4.0) -> UnsafeRegion:
+    """A keep-out box holding the target with its buffer alone (its footprint is ``x`` away)."""
+    half = core_half + buffer_m
+    return UnsafeRegion(np.array([x - half, -half, -1.0]), np.array([x + half, half, top]), "u", "unknown", True,
+                        buffer_m=buffer_m, z_min=top)
+
+
+def _coverage_by_height(height_m: float) -> float:
+    """A downward camera whose coverage collapses above 4.4 m (as the shipped one's, coverage.py)."""
+    return 7.0 if height_m <= 4.4 else 0.0
+
+
+def test_a_hover_raised_by_a_buffer_alone_is_lowered_to_where_the_gate_can_pass() -> None:
+    # The approach ends above an unknown thing's 5 m keep-out (z_min 5 m). Held there, the downward
+    # camera covers no one, so the gate could never open (urban seed 27 timed out so): the hold
+    # goes down to the highest height the untracked bound passes from, straight over the target.
+    logic = LandingLogic(TARGET, S)
+    logic.climbed = True
+    around = Surroundings([_buffered(5.0)], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height)
+    high = np.array([0.0, 0.0, 5.5])
+    phase, goal = logic.update(np.array([8.0, 0.0, 5.5]), STILL, 0.0, around)
+    assert phase == Phase.APPROACH and goal[2] == pytest.approx(5.5)  # over the keep-out first
+    phase, goal = logic.update(high, STILL, 0.1, around)
+    assert phase == Phase.HOLD and logic.lowered_hold
+    assert S.cruise_altitude_m <= goal[2] < 4.4 and np.allclose(goal[:2], TARGET[:2])
+    seen = logic.observation_height_m(5.5, around)
+    assert seen is not None and goal[2] == pytest.approx(seen)
+    # held at the lowered height, with coverage there, the gate opens
+    low = np.array([0.0, 0.0, goal[2]])
+    around_low = Surroundings([_buffered(5.0)], [], _coverage_by_height(goal[2]), lambda _d: [],
+                              coverage_at=_coverage_by_height)
+    assert logic.update(low, STILL, 0.2, around_low)[0] == Phase.DESCEND
+
+
+def test_a_hover_is_not_lowered_into_a_footprint_a_cut_view_or_without_coverage() -> None:
+    logic = LandingLogic(TARGET, S)
+    # the footprint itself covers the target: kept above it (a crown over the pad)
+    over = _buffered(5.0, x=0.5)
+    assert logic._hold_heights(Surroundings([over], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height)) \
+        == (pytest.approx(5.5), pytest.approx(5.5))
+    # a box guessed above a view cut at the top: what reaches over the target is unknown
+    guessed = _buffered(5.0)
+    guessed.meta[UNSEEN_TOP] = 1.0
+    assert logic._hold_heights(Surroundings([guessed], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height))[1] \
+        == pytest.approx(5.5)
+    # no height gives coverage (no downward camera): nothing is gained by going lower
+    assert logic._hold_heights(Surroundings([_buffered(5.0)], [], 0.0, lambda _d: [], coverage_at=lambda _h: 0.0))[1] \
+        == pytest.approx(5.5)
+    # no raise, no change
+    assert logic._hold_heights(_around()) == (pytest.approx(S.cruise_altitude_m),) * 2
+
+
+def test_the_observation_height_keeps_the_untracked_bound_at_both_ends_of_the_arrival_tolerance() -> None:
+    logic = LandingLogic(TARGET, S)
+    around = Surroundings([], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height)
+    h = logic.observation_height_m(6.0, around)
+    assert h is not None
+    for z in (h - ARRIVE_HEIGHT_TOL_M, h + ARRIVE_HEIGHT_TOL_M):
+        clearance = commit_clearance(TARGET[:2], [], logic.descent_duration_s(z, 0.0), logic.bounds,
+                                     coverage_m=_coverage_by_height(z), unseen_s=S.coverage_frame_period_s,
+                                     xy_margin_m=S.landing_xy_margin_m)
+        assert clearance.safe

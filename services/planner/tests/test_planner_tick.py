@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 from llmland_planner.hard_limit import REACH_CEILING_M
+from llmland_planner.landing import Phase
 from llmland_planner.planner import REACH_FLOOR_MARGIN_M, YAW_LOOK_AHEAD_M, Planner
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import MissionGoal, VehicleState
@@ -293,3 +294,21 @@ def test_a_new_episode_cancels_the_search_the_tick_thread_waits_for(monkeypatch)
     waiter.join(timeout=30.0)
     assert not waiter.is_alive()
     assert cancelled == [True]  # ended by the cancel, not by its own 60 s
+
+
+@pytest.mark.parametrize("start_z, goal_z", [(5.5, 4.2), (2.0, 3.5)])
+def test_the_vertical_reference_goes_straight_to_the_hold_height_up_or_down(start_z, goal_z):
+    """Climbing out goes up to the hold point; a lowered hold is reached straight down from the
+    approach's end (over a keep-out the path search may not enter): both at the climb speed."""
+    pl = Planner(PlannerSettings())
+    pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 2.7), target_m=(0, 0, 0)))
+    s = pl.settings
+    phase = Phase.CLIMB_OUT if goal_z > start_z else Phase.HOLD
+    ref_pos, ref_vel = pl._vertical_reference(phase, np.array([0.3, 0.0, start_z]), np.zeros(3),
+                                              np.array([0.0, 0.0, goal_z]))
+    assert ref_pos.shape == (s.horizon + 1, 3) and np.allclose(ref_pos[:, :2], 0.0)
+    steps = np.diff(np.concatenate([[start_z], ref_pos[:, 2]]))
+    assert np.all(np.sign(steps[np.abs(steps) > 1e-12]) == np.sign(goal_z - start_z))
+    assert np.all(np.abs(steps) <= s.climb_speed_mps * s.mpc_dt_s + 1e-9)
+    assert ref_pos[-1, 2] == pytest.approx(goal_z) and ref_vel[-1, 2] == 0.0
+    assert np.all(np.abs(ref_vel[:, 2]) <= s.climb_speed_mps)
