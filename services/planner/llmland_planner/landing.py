@@ -199,23 +199,22 @@ class LandingLogic:
         """True when the vehicle holds below the approach's hover height (:meth:`update`)."""
         return bool(self.hold_z < self.approach_z - ARRIVE_HEIGHT_TOL_M)
 
-    def observation_height_m(self, top_m: float, around: Surroundings) -> float | None:
-        """The highest hold height (m above the target, a multiple of ``HOLD_HEIGHT_STEP_M`` from
-        ``top_m`` down to the cruise altitude) from which the gate's untracked-people bound can pass:
-        the coverage radius there is at least what anyone outside it could walk before touchdown
-        (:func:`~.hard_limit.commit_clearance` with nobody tracked), at both ends of the arrival
-        tolerance. None when no height passes (or the coverage is unknown)."""
+    def observation_height_m(self, bottom_m: float, top_m: float, around: Surroundings) -> float | None:
+        """The lowest hold height (m above the target, ``bottom_m`` and up in ``HOLD_HEIGHT_STEP_M``
+        steps, at most ``top_m``) from which the gate's untracked-people bound can pass: the
+        coverage radius there is at least what anyone outside it could walk before touchdown
+        (:func:`~.hard_limit.commit_clearance` with nobody tracked). The lowest, because a shorter
+        descent leaves tracked people less time to close in. None when no height passes (or the
+        coverage is unknown)."""
         s = self.settings
         if around.coverage_at is None or not s.require_coverage:
             return None
-        h = top_m
-        while h >= s.cruise_altitude_m - 1e-9:
-            if all(commit_clearance(self.target_m[:2], [], self.descent_duration_s(z, 0.0), self.bounds,
-                                    coverage_m=around.coverage_at(z), unseen_s=s.coverage_frame_period_s,
-                                    xy_margin_m=s.landing_xy_margin_m).safe
-                   for z in (h - ARRIVE_HEIGHT_TOL_M, h + ARRIVE_HEIGHT_TOL_M)):
+        for i in range(int(math.floor((top_m - bottom_m) / HOLD_HEIGHT_STEP_M + 1e-9)) + 1):
+            h = bottom_m + i * HOLD_HEIGHT_STEP_M
+            if commit_clearance(self.target_m[:2], [], self.descent_duration_s(h, 0.0), self.bounds,
+                                coverage_m=around.coverage_at(h), unseen_s=s.coverage_frame_period_s,
+                                xy_margin_m=s.landing_xy_margin_m).safe:
                 return h
-            h -= HOLD_HEIGHT_STEP_M
         return None
 
     def _hold_heights(self, around: Surroundings) -> tuple[float, float]:
@@ -224,13 +223,13 @@ class LandingLogic:
         The approach ends above every region that holds the target (:func:`hover_altitude`). The
         downward camera's coverage collapses above a few metres (a person's torso seen from high up
         covers too few pixels to be detected for sure; :mod:`.coverage`), and with no coverage the
-        hard-limit gate can never open. So the vehicle then holds lower, straight above the
-        target, at the highest height from which the gate can pass
-        (:meth:`observation_height_m`), though never lower than what covers the target with its
-        footprint (``footprints_only``) nor under the reach floor. What it leaves above it there is
-        only the keep-out of regions that hold the target with their buffer, not the thing itself:
-        the final descent passes there anyway, the column above the landing point being clear of
-        still things' footprints (the gate's disc check)."""
+        hard-limit gate can never open. So when only regions' buffers raised it, the vehicle holds
+        lower, straight above the target: at the lowest height from which the gate can pass
+        (:meth:`observation_height_m`), from what covers the target with its footprint
+        (``footprints_only``), the cruise altitude and the reach floor up. What it leaves above it
+        there is the keep-out of regions that hold the target with their buffer alone, not the
+        things themselves: the final descent passes there anyway, the column above the landing
+        point being clear of still things' footprints (the gate's disc check)."""
         s, tgt = self.settings, np.asarray(self.target_m, dtype=float)
         floor = around.floor_at(tgt)
         approach = max(hover_altitude(tgt, around.regions, s), floor)
@@ -239,9 +238,8 @@ class LandingLogic:
         kept = max(hover_altitude(tgt, around.regions, s, footprints_only=True), floor)
         if kept >= approach - ARRIVE_HEIGHT_TOL_M:
             return approach, approach
-        top = math.floor((approach - tgt[2]) / HOLD_HEIGHT_STEP_M) * HOLD_HEIGHT_STEP_M
-        seen = self.observation_height_m(top, around)
-        return approach, approach if seen is None else max(kept, tgt[2] + seen)
+        seen = self.observation_height_m(kept - tgt[2], approach - tgt[2], around)
+        return approach, approach if seen is None else tgt[2] + seen
 
     def update(self, pos_m: FloatArray, vel_mps: FloatArray, t_s: float,
                around: Surroundings) -> tuple[Phase, FloatArray]:

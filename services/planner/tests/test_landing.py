@@ -6,7 +6,6 @@ import pytest
 from llmland_planner.ground import ReachFloor
 from llmland_planner.hard_limit import REACH_CEILING_M, PersonHypothesis, commit_clearance
 from llmland_planner.landing import (
-    ARRIVE_HEIGHT_TOL_M,
     LandingLogic,
     Phase,
     Surroundings,
@@ -195,9 +194,7 @@ def test_a_hover_raised_by_a_buffer_alone_is_lowered_to_where_the_gate_can_pass(
     assert phase == Phase.APPROACH and goal[2] == pytest.approx(5.5)  # over the keep-out first
     phase, goal = logic.update(high, STILL, 0.1, around)
     assert phase == Phase.HOLD and logic.lowered_hold
-    assert S.cruise_altitude_m <= goal[2] < 4.4 and np.allclose(goal[:2], TARGET[:2])
-    seen = logic.observation_height_m(5.5, around)
-    assert seen is not None and goal[2] == pytest.approx(seen)
+    assert goal[2] == pytest.approx(S.cruise_altitude_m) and np.allclose(goal[:2], TARGET[:2])
     # held at the lowered height, with coverage there, the gate opens
     low = np.array([0.0, 0.0, goal[2]])
     around_low = Surroundings([_buffered(5.0)], [], _coverage_by_height(goal[2]), lambda _d: [],
@@ -223,13 +220,21 @@ def test_a_hover_is_not_lowered_into_a_footprint_a_cut_view_or_without_coverage(
     assert logic._hold_heights(_around()) == (pytest.approx(S.cruise_altitude_m),) * 2
 
 
-def test_the_observation_height_keeps_the_untracked_bound_at_both_ends_of_the_arrival_tolerance() -> None:
+def test_the_hold_is_the_lowest_height_the_untracked_bound_passes_from() -> None:
     logic = LandingLogic(TARGET, S)
-    around = Surroundings([], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height)
-    h = logic.observation_height_m(6.0, around)
-    assert h is not None
-    for z in (h - ARRIVE_HEIGHT_TOL_M, h + ARRIVE_HEIGHT_TOL_M):
-        clearance = commit_clearance(TARGET[:2], [], logic.descent_duration_s(z, 0.0), logic.bounds,
-                                     coverage_m=_coverage_by_height(z), unseen_s=S.coverage_frame_period_s,
-                                     xy_margin_m=S.landing_xy_margin_m)
-        assert clearance.safe
+
+    def margin(h: float, coverage_at) -> float:
+        return commit_clearance(TARGET[:2], [], logic.descent_duration_s(h, 0.0), logic.bounds,
+                                coverage_m=coverage_at(h), unseen_s=S.coverage_frame_period_s,
+                                xy_margin_m=S.landing_xy_margin_m).margin_m
+
+    def narrow_low(h: float) -> float:  # a camera that covers too little below 3.9 m
+        return 2.0 if h < 3.9 else 7.0
+
+    around = Surroundings([], [], 0.0, lambda _d: [], coverage_at=narrow_low)
+    h = logic.observation_height_m(S.cruise_altitude_m, 6.0, around)
+    assert h == pytest.approx(3.9) and margin(h, narrow_low) >= 0.0 > margin(h - 0.1, narrow_low)
+    assert logic.observation_height_m(S.cruise_altitude_m, 3.8, around) is None  # never above the top given
+    # hold heights: the approach over the buffer, the hold from there
+    around = Surroundings([_buffered(5.0)], [], 0.0, lambda _d: [], coverage_at=narrow_low)
+    assert logic._hold_heights(around) == (pytest.approx(5.5), pytest.approx(3.9))
