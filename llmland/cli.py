@@ -19,7 +19,7 @@ from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint, raise_keyboard_interrupt
-from .results import summarize, write_results_csv
+from .results import summarize
 from .stacks import StackConfig, make_mission, open_stack
 from .view import add_view_parser
 
@@ -79,17 +79,24 @@ def _parse_seeds(text: str) -> list[int]:
 
 
 def cmd_trials(args: argparse.Namespace) -> int:
-    """Many seeds on one running stack; a CSV row per episode and a summary line."""
+    """Many seeds on one running stack; a CSV row per episode as it ends (the columns of
+    ``llmland experiment``'s trials.csv) and a summary."""
+    from .experiment.plan import Trial
+    from .experiment.runner import append_row, trial_row
+
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    csv_path = out / "trials.csv"
+    csv_path.unlink(missing_ok=True)
     rows = []
     cfg = _config(args)
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
         for seed in _parse_seeds(args.seeds):
             r = running.runner.run(_mission(args, cfg, seed))
             rows.append(r)
+            append_row(csv_path, trial_row(Trial(args.world, args.method, seed, latency_model=args.latency_model),
+                                           r, None))
             log.info("%s", summary_line(r))
-    write_results_csv(out / "trials.csv", rows)
     summary = summarize(rows)
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")

@@ -1,34 +1,12 @@
-"""Episode results → CSV rows and summary figures."""
+"""Summary figures of episode results (``llmland trials``; its CSV rows are
+:func:`llmland.experiment.runner.trial_row`'s, like every experiment's)."""
 
 from __future__ import annotations
 
-import csv
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from llmland_schemas import EpisodeResult
-
-COLUMNS = [
-    "episode_id", "world", "seed", "method", "clock", "success", "outcome", "touchdown_error_m",
-    "time_to_land_s", "min_person_distance_m", "close_calls", "collisions", "sim_time_s", "wall_time_s",
-    "deadline_misses", "commands_missing", "spec_latency_ms_mean", "mpc_solve_ms_p50", "mpc_solve_ms_p95",
-]
-
-
-def _row(r: EpisodeResult) -> dict[str, Any]:
-    d = r.model_dump()
-    d["min_person_distance_m"] = min(r.min_person_distance_m.values()) if r.min_person_distance_m else ""
-    d["collisions"] = ";".join(r.collisions)
-    return {k: d[k] for k in COLUMNS}
-
-
-def write_results_csv(path: Path, results: list[EpisodeResult]) -> None:
-    with path.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in results:
-            w.writerow(_row(r))
 
 
 def summarize(results: list[EpisodeResult]) -> dict[str, Any]:

@@ -104,4 +104,4 @@ def test_a_seed_flies_the_same_episode_after_another_one_in_the_same_stack(tmp_p
     assert after["outcome"] == first["outcome"]
     assert float(after["sim_time_s"]) == pytest.approx(first["sim_time_s"], abs=1e-6)
     closest_first = min(first["min_person_distance_m"].values())
-    assert float(after["min_person_distance_m"]) == pytest.approx(closest_first, abs=1e-3)
+    assert float(after["closest_person_m"]) == pytest.approx(closest_first, abs=1e-3)

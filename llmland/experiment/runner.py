@@ -73,6 +73,16 @@ def trial_row(trial: Trial, r: EpisodeResult, peak_memory_mb: float | None) -> d
     }
 
 
+def append_row(path: Path, row: dict[str, Any]) -> None:
+    """Append one trial's row to the CSV at ``path`` (:data:`COLUMNS`; the header first if new)."""
+    new = not path.exists()
+    with path.open("a", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        if new:
+            w.writeheader()
+        w.writerow(row)
+
+
 def error_row(trial: Trial, reason: str) -> dict[str, Any]:
     row: dict[str, Any] = {c: "" for c in COLUMNS}
     row.update({"world": trial.world, "method": trial.method, "variant": trial.variant, "seed": trial.seed,
@@ -134,12 +144,7 @@ class ExperimentRunner:
 
     def _record(self, row: dict[str, Any]) -> None:
         with self._lock:
-            new = not self.csv_path.exists()
-            with self.csv_path.open("a", newline="") as fh:
-                w = csv.DictWriter(fh, fieldnames=COLUMNS)
-                if new:
-                    w.writeheader()
-                w.writerow(row)
+            append_row(self.csv_path, row)
             name = row["method"] + (f" [{row['variant']}]" if row["variant"] else "")
             tally = self._tally.setdefault(name, Counter())
             tally["n"] += 1
