@@ -31,6 +31,7 @@ from functools import cached_property
 import numpy as np
 from llmland_schemas.arrays import FloatArray
 
+from .coverage import HEIGHT_STEP_M
 from .descent import DescentProfile
 from .ground import ReachFloor
 from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
@@ -44,8 +45,8 @@ ARRIVE_SPEED_MPS = 0.5
 HOVER_REGION_CLEARANCE_M = 0.5
 #: lost the hover point: farther than this (m) horizontally goes back to approach
 HOLD_LOST_M = 1.7
-#: heights (m) tried for a lowered hold (the coverage table's height step, coverage.HEIGHT_STEP_M)
-HOLD_HEIGHT_STEP_M = 0.1
+#: heights (m) tried for a lowered hold: the coverage table's own step
+HOLD_HEIGHT_STEP_M = HEIGHT_STEP_M
 
 
 class Phase(StrEnum):
@@ -151,6 +152,7 @@ class LandingLogic:
     hold_z: float = math.nan
     profile: DescentProfile = field(init=False)
     bounds: HumanMotionBounds = field(init=False)
+    _untracked_passes: dict[tuple[float, float], bool] = field(init=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         s = self.settings
@@ -206,16 +208,25 @@ class LandingLogic:
         (:func:`~.hard_limit.commit_clearance` with nobody tracked). The lowest, because a shorter
         descent leaves tracked people less time to close in. None when no height passes (or the
         coverage is unknown)."""
-        s = self.settings
-        if around.coverage_at is None or not s.require_coverage:
+        if around.coverage_at is None or not self.settings.require_coverage:
             return None
         for i in range(int(math.floor((top_m - bottom_m) / HOLD_HEIGHT_STEP_M + 1e-9)) + 1):
             h = bottom_m + i * HOLD_HEIGHT_STEP_M
-            if commit_clearance(self.target_m[:2], [], self.descent_duration_s(h, 0.0), self.bounds,
-                                coverage_m=around.coverage_at(h), unseen_s=s.coverage_frame_period_s,
-                                xy_margin_m=s.landing_xy_margin_m).safe:
+            if self._untracked_bound_passes(h, around.coverage_at(h)):
                 return h
         return None
+
+    def _untracked_bound_passes(self, height_m: float, coverage_m: float) -> bool:
+        """Whether the gate's untracked-people bound passes for a descent from ``height_m`` with the
+        coverage ``coverage_m`` (memoised: the hold scan runs every control tick while a hover is
+        raised, over the same few heights and radii)."""
+        key = (height_m, coverage_m)
+        if key not in self._untracked_passes:
+            s = self.settings
+            self._untracked_passes[key] = commit_clearance(
+                self.target_m[:2], [], self.descent_duration_s(height_m, 0.0), self.bounds, coverage_m=coverage_m,
+                unseen_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m).safe
+        return self._untracked_passes[key]
 
     def _hold_heights(self, around: Surroundings) -> tuple[float, float]:
         """The approach's hover height and the hold height (z, m).

@@ -130,19 +130,20 @@ class Planner:
         off_target = float(np.linalg.norm(pos[:2] - self.landing.target_m[:2]))
         intrinsics, height = w.down_intrinsics, float(pos[2] - self.landing.target_m[2])
 
+        def radius(height_m: float, tilt: float) -> float:
+            return 0.0 if intrinsics is None else detection_radius_m(
+                intrinsics, height_m, tilt, stride=s.down_blob_stride, min_points=s.down_blob_min_points,
+                torso=self._torso)
+
         def coverage() -> float:
-            if intrinsics is None or not fresh or off_target >= HOLD_LOST_M:
+            if not fresh or off_target >= HOLD_LOST_M:
                 return 0.0
             # about the landing point: the radius around the vehicle less the vehicle's offset from it
-            radius = detection_radius_m(intrinsics, height, tilt_rad, stride=s.down_blob_stride,
-                                        min_points=s.down_blob_min_points, torso=self._torso)
-            return max(0.0, radius - off_target)
+            return max(0.0, radius(height, tilt_rad) - off_target)
 
         def coverage_at(height_m: float) -> float:
             """From a hover straight above the target (a hover's tilt: under one table step)."""
-            return 0.0 if intrinsics is None else detection_radius_m(
-                intrinsics, height_m, TILT_STEP_RAD, stride=s.down_blob_stride, min_points=s.down_blob_min_points,
-                torso=self._torso)
+            return radius(height_m, TILT_STEP_RAD)
 
         age = 0.0 if w.last_down_stamp_s is None else max(0.0, t - w.last_down_stamp_s)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration),

@@ -5,13 +5,7 @@ import numpy as np
 import pytest
 from llmland_planner.ground import ReachFloor
 from llmland_planner.hard_limit import REACH_CEILING_M, PersonHypothesis, commit_clearance
-from llmland_planner.landing import (
-    LandingLogic,
-    Phase,
-    Surroundings,
-    disc_clear,
-    hover_altitude,
-)
+from llmland_planner.landing import LandingLogic, Phase, Surroundings, disc_clear, hover_altitude
 from llmland_planner.regions import UNSEEN_TOP, UnsafeRegion
 from llmland_planner.settings import PlannerSettings
 
@@ -185,7 +179,7 @@ def _coverage_by_height(height_m: float) -> float:
 def test_a_hover_raised_by_a_buffer_alone_is_lowered_to_where_the_gate_can_pass() -> None:
     # The approach ends above an unknown thing's 5 m keep-out (z_min 5 m). Held there, the downward
     # camera covers no one, so the gate could never open (urban seed 27 timed out so): the hold
-    # goes down to the highest height the untracked bound passes from, straight over the target.
+    # goes down to the lowest height the untracked bound passes from, straight over the target.
     logic = LandingLogic(TARGET, S)
     logic.climbed = True
     around = Surroundings([_buffered(5.0)], [], 0.0, lambda _d: [], coverage_at=_coverage_by_height)
