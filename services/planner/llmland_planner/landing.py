@@ -105,10 +105,13 @@ class GateDecision:
 
 def disc_clear(target_xy: FloatArray, radius_m: float, regions: list[UnsafeRegion]) -> bool:
     """True when no region's footprint (box in x, y) meets the disc around ``target_xy``."""
-    c = np.asarray(target_xy, dtype=float)[:2]
-    for r in regions:
-        nearest = np.clip(c, r.lo[:2], r.hi[:2])
-        if float(np.linalg.norm(nearest - c)) < radius_m:
+    cx, cy = np.asarray(target_xy, dtype=float)[:2].tolist()
+    for r in regions:  # scalar maths: every region, every control tick while holding
+        lo_x, lo_y, _ = r.lo.tolist()
+        hi_x, hi_y, _ = r.hi.tolist()
+        dx = min(max(cx, lo_x), hi_x) - cx  # to the footprint's nearest point
+        dy = min(max(cy, lo_y), hi_y) - cy
+        if math.sqrt(dx * dx + dy * dy) < radius_m:  # np.linalg.norm's sum, bit for bit
             return False
     return True
 
@@ -126,12 +129,15 @@ def hover_altitude(target_m: FloatArray, regions: list[UnsafeRegion], settings: 
     t = np.asarray(target_m, dtype=float)
     z = t[2] + settings.cruise_altitude_m
     ceiling = t[2] + settings.max_altitude_m - HOVER_REGION_CLEARANCE_M
-    for r in regions:
-        if float(r.hi[2]) + HOVER_REGION_CLEARANCE_M > ceiling:
+    tx, ty = float(t[0]), float(t[1])
+    for r in regions:  # scalar maths: this runs over every region several times per control tick
+        lo_x, lo_y, _ = r.lo.tolist()
+        hi_x, hi_y, hi_z = r.hi.tolist()
+        if hi_z + HOVER_REGION_CLEARANCE_M > ceiling:
             continue
         grow = 0.0 if not footprints_only or r.meta.get(UNSEEN_TOP) else r.buffer_m
-        if np.all(t[:2] >= r.lo[:2] + grow) and np.all(t[:2] <= r.hi[:2] - grow):
-            z = max(z, float(r.hi[2]) + HOVER_REGION_CLEARANCE_M)
+        if lo_x + grow <= tx <= hi_x - grow and lo_y + grow <= ty <= hi_y - grow:
+            z = max(z, hi_z + HOVER_REGION_CLEARANCE_M)
     return z
 
 

@@ -57,10 +57,15 @@ class UnsafeRegion:
     meta: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.lo = np.asarray(self.lo, dtype=float).reshape(3)
-        self.hi = np.asarray(self.hi, dtype=float).reshape(3)
-        if np.any(self.hi < self.lo):
-            raise ValueError(f"region {self.obj_id!r}: hi {self.hi} below lo {self.lo}")
+        # Regions are built by the dozen on every control tick: skip the conversions when the
+        # bounds already are float (3,) arrays (np.asarray would return them unchanged anyway).
+        lo, hi = self.lo, self.hi
+        if not (type(lo) is np.ndarray and lo.dtype == np.float64 and lo.shape == (3,)):
+            lo = self.lo = np.asarray(lo, dtype=float).reshape(3)
+        if not (type(hi) is np.ndarray and hi.dtype == np.float64 and hi.shape == (3,)):
+            hi = self.hi = np.asarray(hi, dtype=float).reshape(3)
+        if (hi < lo).any():
+            raise ValueError(f"region {self.obj_id!r}: hi {hi} below lo {lo}")
 
     def contains(self, p: ArrayLike, margin_m: float = 0.0) -> bool:
         """True when ``p (3,)`` lies in the box grown by ``margin_m`` (closed set)."""
@@ -119,29 +124,30 @@ def from_obstacle(center_xy: ArrayLike, half_size_m: float | ArrayLike, height_m
     ``is_dynamic`` is ``is_dynamic`` when given (a person standing still is dynamic), else
     whether the obstacle moves.
     """
-    c = np.asarray(center_xy, dtype=float).reshape(2)
-    half = np.broadcast_to(np.asarray(half_size_m, dtype=float), (2,)) + buffer_m
-    if np.any(half < 0.0):
+    cx, cy = np.asarray(center_xy, dtype=float).reshape(2).tolist()
+    hx, hy = (np.broadcast_to(np.asarray(half_size_m, dtype=float), (2,)) + buffer_m).tolist()
+    if hx < 0.0 or hy < 0.0:
         raise ValueError(f"obstacle {obj_id!r}: negative half size {half_size_m!r}")
     top = z_ground_m + max(height_m + min(buffer_m, OVERFLY_CLEARANCE_M), z_min)
     bottom = z_ground_m - BELOW_GROUND_M
-    vel = None if velocity_xy is None else np.asarray(velocity_xy, dtype=float).reshape(2)
-    moving = vel is not None and float(np.linalg.norm(vel)) > 1e-9
+    vx, vy = (0.0, 0.0) if velocity_xy is None else np.asarray(velocity_xy, dtype=float).reshape(2).tolist()
+    moving = velocity_xy is not None and math.sqrt(vx * vx + vy * vy) > 1e-9
     dynamic = moving if is_dynamic is None else is_dynamic
-    if not moving or vel is None or horizon_s <= 0.0:
-        return [UnsafeRegion(np.array([c[0] - half[0], c[1] - half[1], bottom]),
-                             np.array([c[0] + half[0], c[1] + half[1], top]), obj_id, label,
+    if not moving or horizon_s <= 0.0:
+        return [UnsafeRegion(np.array([cx - hx, cy - hy, bottom]), np.array([cx + hx, cy + hy, top]), obj_id, label,
                              dynamic, buffer_m, z_min)]
     n = max(1, min(MAX_SWEEP_SLICES, math.ceil(horizon_s / max(dt_s, 1e-6))))
     times = np.linspace(0.0, horizon_s, n + 1)
-    out: list[UnsafeRegion] = []
-    for t0, t1 in zip(times[:-1], times[1:], strict=True):
-        c0, c1 = c + vel * t0, c + vel * t1
-        lo_xy, hi_xy = np.minimum(c0, c1) - half, np.maximum(c0, c1) + half
-        out.append(UnsafeRegion(np.array([lo_xy[0], lo_xy[1], bottom]),
-                                np.array([hi_xy[0], hi_xy[1], top]), obj_id, label, dynamic,
-                                buffer_m, z_min, {"t0_s": float(t0), "t1_s": float(t1)}))
-    return out
+    # all slices at once (scalar per-slice numpy calls cost more than the maths): slice i covers
+    # the footprint between t_i and t_{i+1}
+    xs, ys = cx + vx * times, cy + vy * times
+    lo_x = (np.minimum(xs[:-1], xs[1:]) - hx).tolist()
+    lo_y = (np.minimum(ys[:-1], ys[1:]) - hy).tolist()
+    hi_x = (np.maximum(xs[:-1], xs[1:]) + hx).tolist()
+    hi_y = (np.maximum(ys[:-1], ys[1:]) + hy).tolist()
+    ts = times.tolist()
+    return [UnsafeRegion(np.array([lo_x[i], lo_y[i], bottom]), np.array([hi_x[i], hi_y[i], top]), obj_id, label,
+                         dynamic, buffer_m, z_min, {"t0_s": ts[i], "t1_s": ts[i + 1]}) for i in range(n)]
 
 
 def boxes_array(regions: list[UnsafeRegion]) -> tuple[FloatArray, FloatArray]:

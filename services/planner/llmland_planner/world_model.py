@@ -102,11 +102,14 @@ class WorldModel:
         #: :meth:`views` of the last queried time, valid while the tracks and their specs stay
         #: as they were (one tick asks three times: keep-out, possible people, the landing disc)
         self._views_cache: tuple[tuple[float, int, int], list[TrackView]] | None = None
+        self._track_copies: tuple[tuple[int, int], list[TrackedObstacle]] | None = None
         self._specs_revision = 0
         #: keep-out boxes of still tracks, by track and view, while the tracks and specs stay as
         #: they were (a still track's boxes do not depend on the time)
         self._still_regions: dict[tuple[str, float, float, str, bool, bool, bool], list[UnsafeRegion]] = {}
         self._still_regions_rev: tuple[int, int] = (-1, -1)
+        self._still_landing: dict[tuple[str, bool, bool, str], list[UnsafeRegion]] = {}
+        self._still_landing_rev: tuple[int, int] = (-1, -1)
 
     @property
     def semantic(self) -> bool:
@@ -232,7 +235,11 @@ class WorldModel:
         cached = self._views_cache
         if cached is not None and cached[0] == key:
             return cached[1]
-        out = [self.view(tr, t_s) for tr in self.tracker.tracks()]
+        rev = key[1:]
+        if self._track_copies is None or self._track_copies[0] != rev:
+            # the copies change only with the tracks or their specs, not with time (5-10 Hz, not 50)
+            self._track_copies = (rev, self.tracker.tracks())
+        out = [self.view(tr, t_s) for tr in self._track_copies[1]]
         self._views_cache = (key, out)
         return out
 
@@ -341,18 +348,33 @@ class WorldModel:
         reachable sets already bound where they can be, whatever they do.
         """
         s = self.settings
+        rev = (self.tracker.revision, self._specs_revision)
+        if rev != self._still_landing_rev:
+            self._still_landing, self._still_landing_rev = {}, rev
         out: list[UnsafeRegion] = []
         for v in self.views(t_s):
             tr = v.track
+            if not v.moving:  # a still track's box does not depend on the time (built once per revision)
+                key = (tr.track_id, v.possible_person, v.human, v.label)
+                boxes = self._still_landing.get(key)
+                if boxes is None:
+                    boxes = self._still_landing[key] = self._clearance_boxes(v, 0.0)
+                out += boxes
+                continue
             dt_pred = min(max(0.0, t_s - tr.last_seen_s), s.predict_cap_s)
-            centre, half, height, z0 = self._footprint(v, dt_pred if v.moving else 0.0)
-            if v.moving and not v.possible_person:
-                out += from_obstacle(centre, half, height, v.buffer_m, v.z_min, velocity_xy=tr.velocity_mps[:2],
-                                     horizon_s=duration_s, obj_id=tr.track_id, label=v.label, z_ground_m=z0)
-            else:
-                out += from_obstacle(centre, half, height, s.landing_clearance_m, 0.0, obj_id=tr.track_id,
-                                     label=v.label, z_ground_m=z0)
+            if v.possible_person:
+                out += self._clearance_boxes(v, dt_pred)
+                continue
+            centre, half, height, z0 = self._footprint(v, dt_pred)
+            out += from_obstacle(centre, half, height, v.buffer_m, v.z_min, velocity_xy=tr.velocity_mps[:2],
+                                 horizon_s=duration_s, obj_id=tr.track_id, label=v.label, z_ground_m=z0)
         return out
+
+    def _clearance_boxes(self, v: TrackView, t_pred_s: float) -> list[UnsafeRegion]:
+        """The track's footprint ``t_pred_s`` ahead, grown by ``landing_clearance_m`` (one box)."""
+        centre, half, height, z0 = self._footprint(v, t_pred_s)
+        return from_obstacle(centre, half, height, self.settings.landing_clearance_m, 0.0, obj_id=v.track.track_id,
+                             label=v.label, z_ground_m=z0)
 
     def unresolved(self, t_s: float) -> list[FloatArray]:
         """Footprint centres (2,) of the tracks whose class is unknown at ``t_s``: no spec yet, a

@@ -313,6 +313,26 @@ def test_still_keepout_boxes_are_reused_until_tracks_or_specs_change():
     assert b[0].lo[0] > a[0].lo[0]  # predicted on from its last sighting
 
 
+def test_still_landing_boxes_are_reused_until_tracks_or_specs_change():
+    """The landing disc's boxes of a still track are built once per state of the tracks and specs;
+    a new spec shows at once, and a moving possible person's box follows the
+    prediction tick by tick."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.ingest(0.0)
+    first = wm.landing_regions(0.0, 2.0)
+    assert wm.landing_regions(0.1, 2.0)[0] is first[0]  # same box, a tick later
+    assert first[0].label != "person"  # no spec yet
+    wm.on_spec(_person_spec(0.0, 0.0))
+    wm.release_specs(0.1)
+    assert wm.landing_regions(0.1, 2.0)[0].label == "person"  # the spec shows at once
+    for k in range(1, 6):  # walks along +x at 1.5 m/s
+        wm.tracker.update([_blob(5.0 + 0.3 * k, 0.0)], 0.2 * k)
+        wm.ingest(0.2 * k)
+    a, b = wm.landing_regions(1.0, 2.0), wm.landing_regions(1.1, 2.0)
+    assert len(a) == len(b) == 1 and b[0].lo[0] > a[0].lo[0]  # predicted on from its last sighting
+
+
 def test_lockstep_takes_a_frame_at_the_tick_after_its_stamp():
     """The sim renders a tick's frames after publishing its state and names them in the next
     one: whether a frame stamped t has arrived when tick t runs depends on bus timing, so in

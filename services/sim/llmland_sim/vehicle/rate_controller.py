@@ -23,6 +23,21 @@ from llmland_sim.vehicle.params import DEFAULT_PARAMS, QuadParams
 from llmland_sim.vehicle.rotors import Mixer
 
 
+def _clip(a: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """``np.clip`` for finite input through the ufuncs alone: this runs several times per
+    physics substep on 3- and 4-vectors, where ``np.clip``'s Python dispatch cost more than the
+    maths."""
+    out: np.ndarray = np.minimum(np.maximum(a, lo), hi)
+    return out
+
+
+def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a × b`` of two 3-vectors (``np.cross`` without its axis handling)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 class RateController:
     """PD(+I) body-rate controller with gyroscopic feed-forward and mixer.
 
@@ -54,21 +69,21 @@ class RateController:
 
     def saturate_rates(self, body_rates_rps: np.ndarray) -> np.ndarray:
         """Clip commanded body rates (3,) to ±(6, 6, 3) rad/s (per params)."""
-        return np.clip(np.asarray(body_rates_rps, dtype=float), -self._rate_lim, self._rate_lim)
+        return _clip(np.asarray(body_rates_rps, dtype=float), -self._rate_lim, self._rate_lim)
 
     def compute_torque(self, rates_cmd_rps: np.ndarray, rates_meas_rps: np.ndarray, dt_s: float) -> np.ndarray:
         """Desired body torque (3,) N m for commanded/measured body rates (3,) rad/s."""
         omega = np.asarray(rates_meas_rps, dtype=float)
         err = self.saturate_rates(rates_cmd_rps) - omega
         if dt_s > 0.0 and not self._saturated:
-            self.integral_rad = np.clip(self.integral_rad + err * dt_s, -self._i_lim, self._i_lim)
+            self.integral_rad = _clip(self.integral_rad + err * dt_s, -self._i_lim, self._i_lim)
         if self._prev_rate is None or dt_s <= 0.0:
             rate_dot = np.zeros(3)
         else:
             rate_dot = (omega - self._prev_rate) / dt_s
         self._prev_rate = omega.copy()
         ang_acc = self._kp * err + self._ki * self.integral_rad - self._kd * rate_dot  # rad/s²
-        torque: np.ndarray = self._J @ ang_acc + np.cross(omega, self._J @ omega)
+        torque: np.ndarray = self._J @ ang_acc + _cross3(omega, self._J @ omega)
         return torque
 
     def allocate(self, thrust_n: float, torque_nm: np.ndarray) -> np.ndarray:
@@ -79,11 +94,13 @@ class RateController:
         """
         f_max = self.params.max_rotor_thrust_n
         f = self.mixer.thrusts_from_wrench(thrust_n, torque_nm, clip=False)
-        excess = float(np.max(f)) - f_max
+        f_hi, f_lo = float(f.max()), float(f.min())
+        excess = f_hi - f_max
         if excess > 0.0:
-            f = f - min(excess, max(float(np.min(f)), 0.0))
-        self._saturated = bool(np.any(f > f_max + 1e-9) or np.any(f < -1e-9))
-        return np.clip(f, 0.0, f_max)
+            shift = min(excess, max(f_lo, 0.0))
+            f, f_hi, f_lo = f - shift, f_hi - shift, f_lo - shift
+        self._saturated = f_hi > f_max + 1e-9 or f_lo < -1e-9
+        return _clip(f, 0.0, f_max)
 
     def update(
         self,
@@ -100,7 +117,7 @@ class RateController:
             body_rates_meas_rps: measured (p, q, r) (3,) rad/s, body frame.
             dt_s: time since the previous call, s.
         """
-        thrust = float(np.clip(thrust_cmd_n, 0.0, self.params.max_thrust_n))
+        thrust = min(max(float(thrust_cmd_n), 0.0), self.params.max_thrust_n)
         torque = self.compute_torque(body_rates_cmd_rps, body_rates_meas_rps, dt_s)
         f = self.allocate(thrust, torque)
         self.last_torque_nm = torque

@@ -26,7 +26,9 @@ from llmland_sim.vehicle.params import DEFAULT_PARAMS, QuadParams
 
 def quat_to_rotmat(quat_xyzw: np.ndarray) -> np.ndarray:
     """Rotation matrix (3, 3) mapping body vectors to world, from a quaternion (x, y, z, w)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
+    x, y, z, w = (float(c) for c in quat_xyzw)
+    n = math.sqrt(x * x + y * y + z * z + w * w)  # scalar maths: called every physics substep
+    x, y, z, w = x / n, y / n, z / n, w / n
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],

@@ -45,6 +45,11 @@ def wrap_angle(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
+def yaw_quat_xyzw(yaw_rad: float) -> tuple[float, float, float, float]:
+    """Quaternion ``(x, y, z, w)`` of a rotation by ``yaw_rad`` about world z."""
+    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))
+
+
 def flat_ground(x: float, y: float) -> float:
     return 0.0
 
@@ -94,20 +99,28 @@ class KinematicActor(ABC):
         self.sync_body()
 
     def _alpha(self) -> float:
-        return float(np.clip((self._t_s - self._k * INTERNAL_DT_S) / INTERNAL_DT_S, 0.0, 1.0))
+        """Interpolation weight in ``[0, 1]`` of the current time between the two grid states."""
+        return min(1.0, max(0.0, (self._t_s - self._k * INTERNAL_DT_S) / INTERNAL_DT_S))
+
+    def _pose_xyz_yaw(self) -> tuple[float, float, float, float]:
+        """``(x, y, z, yaw)`` of :meth:`pose` as Python floats (scalar maths: this runs for every
+        actor at every physics substep, where numpy's per-call overhead dominated the sim)."""
+        a = self._alpha()
+        x0, y0, yaw0 = self._prev.tolist()
+        x1, y1, yaw1 = self._next.tolist()
+        x = (1.0 - a) * x0 + a * x1
+        y = (1.0 - a) * y0 + a * y1
+        yaw = wrap_angle(yaw0 + a * wrap_angle(yaw1 - yaw0))
+        return x, y, self._ground(x, y), yaw
 
     def pose(self) -> tuple[FloatArray, float]:
         """``(position_m (3,), yaw_rad)``: ground point under the actor and heading."""
-        a = self._alpha()
-        xy = (1.0 - a) * self._prev[:2] + a * self._next[:2]
-        yaw = wrap_angle(float(self._prev[2]) + a * wrap_angle(float(self._next[2] - self._prev[2])))
-        z = self._ground(float(xy[0]), float(xy[1]))
-        return np.array([xy[0], xy[1], z]), yaw
+        x, y, z, yaw = self._pose_xyz_yaw()
+        return np.array([x, y, z]), yaw
 
     def quat_xyzw(self) -> tuple[float, float, float, float]:
         """Orientation quaternion ``(x, y, z, w)``: rotation by ``yaw`` about world z."""
-        _, yaw = self.pose()
-        return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+        return yaw_quat_xyzw(self._pose_xyz_yaw()[3])
 
     def velocity(self) -> FloatArray:
         """World-frame velocity (3,) in m/s over the current internal interval."""
@@ -126,5 +139,5 @@ class KinematicActor(ABC):
         """Move the attached body (if any) to the current pose."""
         if self.body_id is None or self.client is None:
             return
-        pos, _ = self.pose()
-        p.resetBasePositionAndOrientation(self.body_id, pos.tolist(), self.quat_xyzw(), physicsClientId=self.client)
+        x, y, z, yaw = self._pose_xyz_yaw()
+        p.resetBasePositionAndOrientation(self.body_id, (x, y, z), yaw_quat_xyzw(yaw), physicsClientId=self.client)
