@@ -43,6 +43,14 @@ SWEEP_SLICE_S = 0.25
 UNSEEN_TOP = "unseen_top"
 
 
+def _vec3(a: ArrayLike) -> FloatArray:
+    """``a`` as a float (3,) array, returned as is when it already is one: regions are built by the
+    dozen on every control tick, where the conversion's call cost more than the check."""
+    if type(a) is np.ndarray and a.dtype == np.float64 and a.shape == (3,):
+        return a
+    return np.asarray(a, dtype=float).reshape(3)
+
+
 @dataclass
 class UnsafeRegion:
     """Axis-aligned box ``lo ≤ p ≤ hi`` (world frame, metres) the drone must not enter."""
@@ -57,13 +65,7 @@ class UnsafeRegion:
     meta: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        # Regions are built by the dozen on every control tick: skip the conversions when the
-        # bounds already are float (3,) arrays (np.asarray would return them unchanged anyway).
-        lo, hi = self.lo, self.hi
-        if not (type(lo) is np.ndarray and lo.dtype == np.float64 and lo.shape == (3,)):
-            lo = self.lo = np.asarray(lo, dtype=float).reshape(3)
-        if not (type(hi) is np.ndarray and hi.dtype == np.float64 and hi.shape == (3,)):
-            hi = self.hi = np.asarray(hi, dtype=float).reshape(3)
+        lo, hi = self.lo, self.hi = _vec3(self.lo), _vec3(self.hi)
         if (hi < lo).any():
             raise ValueError(f"region {self.obj_id!r}: hi {hi} below lo {lo}")
 

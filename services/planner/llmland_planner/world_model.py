@@ -108,7 +108,7 @@ class WorldModel:
         #: they were (a still track's boxes do not depend on the time)
         self._still_regions: dict[tuple[str, float, float, str, bool, bool, bool], list[UnsafeRegion]] = {}
         self._still_regions_rev: tuple[int, int] = (-1, -1)
-        self._still_landing: dict[tuple[str, bool, bool, str], list[UnsafeRegion]] = {}
+        self._still_landing: dict[tuple[str, bool, str], list[UnsafeRegion]] = {}
         self._still_landing_rev: tuple[int, int] = (-1, -1)
 
     @property
@@ -355,7 +355,7 @@ class WorldModel:
         for v in self.views(t_s):
             tr = v.track
             if not v.moving:  # a still track's box does not depend on the time (built once per revision)
-                key = (tr.track_id, v.possible_person, v.human, v.label)
+                key = (tr.track_id, v.human, v.label)  # with the revision, all _footprint reads
                 boxes = self._still_landing.get(key)
                 if boxes is None:
                     boxes = self._still_landing[key] = self._clearance_boxes(v, 0.0)

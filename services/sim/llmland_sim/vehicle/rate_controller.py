@@ -20,15 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from llmland_sim.vehicle.params import DEFAULT_PARAMS, QuadParams
-from llmland_sim.vehicle.rotors import Mixer
-
-
-def _clip(a: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
-    """``np.clip`` for finite input through the ufuncs alone: this runs several times per
-    physics substep on 3- and 4-vectors, where ``np.clip``'s Python dispatch cost more than the
-    maths."""
-    out: np.ndarray = np.minimum(np.maximum(a, lo), hi)
-    return out
+from llmland_sim.vehicle.rotors import Mixer, clip_finite
 
 
 def _cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -69,14 +61,14 @@ class RateController:
 
     def saturate_rates(self, body_rates_rps: np.ndarray) -> np.ndarray:
         """Clip commanded body rates (3,) to ±(6, 6, 3) rad/s (per params)."""
-        return _clip(np.asarray(body_rates_rps, dtype=float), -self._rate_lim, self._rate_lim)
+        return clip_finite(np.asarray(body_rates_rps, dtype=float), -self._rate_lim, self._rate_lim)
 
     def compute_torque(self, rates_cmd_rps: np.ndarray, rates_meas_rps: np.ndarray, dt_s: float) -> np.ndarray:
         """Desired body torque (3,) N m for commanded/measured body rates (3,) rad/s."""
         omega = np.asarray(rates_meas_rps, dtype=float)
         err = self.saturate_rates(rates_cmd_rps) - omega
         if dt_s > 0.0 and not self._saturated:
-            self.integral_rad = _clip(self.integral_rad + err * dt_s, -self._i_lim, self._i_lim)
+            self.integral_rad = clip_finite(self.integral_rad + err * dt_s, -self._i_lim, self._i_lim)
         if self._prev_rate is None or dt_s <= 0.0:
             rate_dot = np.zeros(3)
         else:
@@ -100,7 +92,7 @@ class RateController:
             shift = min(excess, max(f_lo, 0.0))
             f, f_hi, f_lo = f - shift, f_hi - shift, f_lo - shift
         self._saturated = f_hi > f_max + 1e-9 or f_lo < -1e-9
-        return _clip(f, 0.0, f_max)
+        return clip_finite(f, 0.0, f_max)
 
     def update(
         self,

@@ -14,6 +14,14 @@ import numpy as np
 from llmland_sim.vehicle.params import DEFAULT_PARAMS, QuadParams
 
 
+def clip_finite(a: np.ndarray, lo: np.ndarray | float, hi: np.ndarray | float) -> np.ndarray:
+    """``np.clip`` for finite input through the ufuncs alone: the vehicle models run it several
+    times per physics substep on 3- and 4-vectors, where ``np.clip``'s Python dispatch cost more
+    than the maths."""
+    out: np.ndarray = np.minimum(np.maximum(a, lo), hi)
+    return out
+
+
 class Mixer:
     """Linear map between the 4 rotor thrusts and the body wrench (X configuration).
 
@@ -75,11 +83,8 @@ class RotorModel:
 
     def saturate(self, speeds_radps: np.ndarray) -> np.ndarray:
         """Clip rotor speeds (4,) to the physical range, rad/s."""
-        # the ufuncs, not np.clip: this runs every physics substep and np.clip's dispatch cost more
-        out: np.ndarray = np.minimum(np.maximum(np.asarray(speeds_radps, dtype=float),
-                                                self.params.min_rotor_speed_radps),
-                                     self.params.max_rotor_speed_radps)
-        return out
+        return clip_finite(np.asarray(speeds_radps, dtype=float), self.params.min_rotor_speed_radps,
+                           self.params.max_rotor_speed_radps)
 
     def speeds_for_thrusts(self, rotor_thrusts_n: np.ndarray) -> np.ndarray:
         """Steady-state rotor speeds (4,) rad/s giving thrusts (4,) N (``sqrt(f/kf)``)."""

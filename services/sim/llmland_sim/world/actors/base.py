@@ -25,6 +25,8 @@ import numpy as np
 import pybullet as p
 from llmland_schemas.arrays import FloatArray
 
+from ..shapes.primitives import quat_yaw
+
 #: A point / vector given as a sequence or a numpy array.
 #: Ground height ``z = f(x, y)`` in metres.
 GroundFn = Callable[[float, float], float]
@@ -43,11 +45,6 @@ def actor_rng(seed: int, index: int) -> np.random.Generator:
 def wrap_angle(a: float) -> float:
     """Wrap an angle to ``[-pi, pi)`` (rad)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def yaw_quat_xyzw(yaw_rad: float) -> tuple[float, float, float, float]:
-    """Quaternion ``(x, y, z, w)`` of a rotation by ``yaw_rad`` about world z."""
-    return (0.0, 0.0, math.sin(yaw_rad / 2.0), math.cos(yaw_rad / 2.0))
 
 
 def flat_ground(x: float, y: float) -> float:
@@ -120,7 +117,7 @@ class KinematicActor(ABC):
 
     def quat_xyzw(self) -> tuple[float, float, float, float]:
         """Orientation quaternion ``(x, y, z, w)``: rotation by ``yaw`` about world z."""
-        return yaw_quat_xyzw(self._pose_xyz_yaw()[3])
+        return quat_yaw(self._pose_xyz_yaw()[3])
 
     def velocity(self) -> FloatArray:
         """World-frame velocity (3,) in m/s over the current internal interval."""
@@ -140,4 +137,4 @@ class KinematicActor(ABC):
         if self.body_id is None or self.client is None:
             return
         x, y, z, yaw = self._pose_xyz_yaw()
-        p.resetBasePositionAndOrientation(self.body_id, (x, y, z), yaw_quat_xyzw(yaw), physicsClientId=self.client)
+        p.resetBasePositionAndOrientation(self.body_id, (x, y, z), quat_yaw(yaw), physicsClientId=self.client)
