@@ -28,7 +28,7 @@ from llmland_schemas.arrays import FloatArray
 from .corridors import Corridor, corridors_for_path, halfspaces_at_times
 from .mpc import Halfspaces
 from .path import Path, resample
-from .regions import UNSEEN_TOP, UnsafeRegion, boxes_array, escape_distance_m, segments_hit_boxes
+from .regions import UNSEEN_TOP, UnsafeRegion, boxes_array, escape_distance_m, no_closer_than_now, segments_hit_boxes
 from .search import SearchConfig, plan
 from .settings import PlannerSettings
 
@@ -156,13 +156,13 @@ class Replanner:
         ``z_floor_m``: the lowest altitude (m) a new path may take; ``floor_fn``: where the floor
         varies (the terrain), the floor at plan-view points ``(..., 2)``, ``z_floor_m`` its minimum.
         """
-        adopted = self._adopt_due(t, regions)
+        adopted = self._adopt_due(t, regions, pos)
         need = (
             self.force_replan
             or self.active is None
             or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
             or t - self._last_replan_s >= self.settings.replan_period_s
-            or self.path_blocked(self.active.path, regions)
+            or self.path_blocked(self.active, regions, pos)
         )
         # at the full budget, failures are retried once per replan period, not back to back
         # (each costs ~16× a search: in lockstep the sim waits for it)
@@ -177,7 +177,7 @@ class Replanner:
                              daemon=True).start()
         return adopted
 
-    def _adopt_due(self, t: float, regions: list[UnsafeRegion]) -> bool:
+    def _adopt_due(self, t: float, regions: list[UnsafeRegion], pos: FloatArray) -> bool:
         job = self._job
         if job is None:
             return False
@@ -196,7 +196,7 @@ class Replanner:
             return True
         self.failed_searches += 1
         self._failed_in_row += 1
-        if self.active is not None and self.path_blocked(self.active.path, regions):
+        if self.active is not None and self.path_blocked(self.active, regions, pos):
             self.active = None  # never keep following a path into a region: hold instead
         return False
 
@@ -217,7 +217,9 @@ class Replanner:
         t0 = time.perf_counter()
         try:
             # Clearance region at the start (paper App.): if regions have grown over the
-            # vehicle, let the path leave them; the heuristic's penalty φ pushes it out.
+            # vehicle, let the path leave them; the heuristic's penalty φ pushes it out. A still
+            # keep-out that holds the vehicle is shrunk to its present distance from the thing.
+            regions = no_closer_than_now(pos, regions)
             clearance = max(self.search_cfg.clearance_radius_m, start_clearance_m(pos, regions))
             cfg = replace(self.search_cfg, clearance_radius_m=clearance, z_floor_m=z_floor_m, floor_fn=floor_fn,
                           max_expansions=self.search_cfg.max_expansions * budget_scale,
@@ -235,12 +237,16 @@ class Replanner:
         job.done.set()
 
     @staticmethod
-    def path_blocked(path: Path, regions: list[UnsafeRegion]) -> bool:
-        """Whether the path beyond its first segment crosses a region."""
-        if not regions or len(path.p) < 3:
+    def path_blocked(plan: ActivePlan, regions: list[UnsafeRegion], pos: FloatArray) -> bool:
+        """Whether the plan's path ahead crosses a region: beyond its first segment, from the
+        segment before the vehicle's nearest path point on (what lies behind is not flown again),
+        with the still keep-outs holding the vehicle at ``pos (3,)`` shrunk as for a search from
+        there (:func:`~.regions.no_closer_than_now`)."""
+        p = plan.path.p[max(1, plan.progress_idx - 1):]
+        if not regions or len(p) < 2:
             return False  # the first segment starts in the start clearance: not checked
-        lo, hi = boxes_array(regions)
-        return bool(np.any(segments_hit_boxes(path.p[1:-1], path.p[2:], lo, hi)))
+        lo, hi = boxes_array(no_closer_than_now(pos, regions))
+        return bool(np.any(segments_hit_boxes(p[:-1], p[1:], lo, hi)))
 
     def look_ahead_m(self, pos: FloatArray, distance_m: float) -> FloatArray | None:
         """The first point ``(3,)`` of the active path past the vehicle's progress that lies at

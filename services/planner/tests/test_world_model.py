@@ -445,3 +445,35 @@ def test_the_start_ball_inside_a_reach_box_stops_at_the_seen_footprint() -> None
     for x in (1.3, 1.6, 2.0, 3.0):
         pos = np.array([x, 0.0, 3.5])
         assert x - start_clearance_m(pos, regions) >= 0.15 - 1e-9  # the trunk's seen face
+
+
+@pytest.mark.parametrize("x", [1.0, 1.6, 2.5])
+def test_a_start_inside_the_box_guessed_above_a_cut_view_has_a_way_out(x: float) -> None:
+    """Regression (open_field seed 34, llm-land and with specs from truth): the vehicle started
+    inside the box kept out above "tall grass" cut at the top of the view (3 m past the grass, up
+    to 10.5 m); the start's clearance ball stopped at the grass, so every search from there failed
+    and the vehicle held for the whole 90 s. The replanner's search now leaves the box, and never
+    comes nearer the grass than the vehicle is at the start (outside the clearance ball)."""
+    from llmland_planner.regions import no_closer_than_now
+    from llmland_planner.replanning import Replanner, start_clearance_m
+
+    s = PlannerSettings()
+    wm = WorldModel(s, "llm-land")
+    wm.tracker.update([_trunk_blob(0.0, 0.0, 1.2)], 0.0)
+    _spec_for_trunk(wm, SafetySpec(is_dynamic=False, is_human=False, z_min=1.5, buffer_m=1.0, label="tall grass",
+                                   source="rag"), 0.0, 0.0)
+    regions = _regions(wm, 0.0)
+    pos, goal = np.array([x, 0.3, 2.5]), np.array([12.0, 6.0, 3.0])
+    assert any(r.meta.get(UNSEEN_TOP) and r.contains(pos) for r in regions)
+    rp = Replanner(s)
+    rp.start(lockstep=True)
+    rp.maybe_replan(0.0, pos, np.zeros(3), goal, regions, z_floor_m=0.5)
+    assert rp.maybe_replan(s.search_budget_s, pos, np.zeros(3), goal, regions, z_floor_m=0.5)
+    assert rp.active is not None
+    path = rp.active.path.p
+    assert np.linalg.norm(path[-1] - goal) < 1e-6
+    from_grass = np.max(np.abs(path[:, :2]) - 0.15, axis=1)  # Chebyshev distance from the seen footprint
+    clearance = max(rp.search_cfg.clearance_radius_m, start_clearance_m(pos, no_closer_than_now(pos, regions)))
+    ball = np.linalg.norm(path - pos, axis=1) <= clearance
+    assert np.all(from_grass[~ball] >= from_grass[0] - 1e-3)
+    assert not rp.path_blocked(rp.active, regions, pos)
