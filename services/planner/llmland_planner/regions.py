@@ -41,8 +41,9 @@ SWEEP_SLICE_S = 0.25
 #: ``UnsafeRegion.meta`` key of a box guessed above a view cut at the top (its ``buffer_m`` is
 #: the guessed reach past the seen footprint; ``world_model.WorldModel._keepout``)
 UNSEEN_TOP = "unseen_top"
-#: ``UnsafeRegion.meta`` key of a box shrunk around the vehicle (:func:`no_closer_than_now`)
-SHRUNK = "shrunk"
+#: ``UnsafeRegion.meta`` key of a possible person's box (whatever its ``is_dynamic``: geometry
+#: alone keeps one who walked and stopped as a still box)
+POSSIBLE_PERSON = "possible_person"
 
 
 def _vec3(a: ArrayLike) -> FloatArray:
@@ -123,7 +124,8 @@ def no_closer_than_now(p: ArrayLike, regions: list[UnsafeRegion]) -> list[Unsafe
     """``regions`` for a path from ``p (3,)``: a still keep-out that holds ``p`` is shrunk so the path
     may leave it but never come nearer the thing than the vehicle is now.
 
-    Applies to boxes that are not dynamic and not a sweep slice, with ``p`` horizontally outside the
+    Applies to boxes that are not dynamic, not a possible person's (``meta[POSSIBLE_PERSON]``) and
+    not a sweep slice, with ``p`` horizontally outside the
     thing's footprint (the box less its ``buffer_m`` along x and y, which :func:`from_obstacle` adds):
     the box becomes that footprint grown by ``c − SHRINK_EPS_M``, ``c`` the Chebyshev (max-axis)
     distance of ``p`` from it, so ``p`` lies just outside; the vertical extent stays. Every other
@@ -132,14 +134,16 @@ def no_closer_than_now(p: ArrayLike, regions: list[UnsafeRegion]) -> list[Unsafe
     cut at the top); the buffer is the keep-out's margin, not the thing, and what this keeps is that
     the margin left to the thing only grows. People (dynamic) and moving things keep their boxes and
     the start's clearance ball (:func:`~.replanning.start_clearance_m`), and the hard limit never
-    reads regions. Regression: open_field seed 34, a start inside the box guessed above "tall
-    grass" cut at the top of the view (3 m past the grass, up to 10.5 m): the clearance ball stopped
-    at the grass, every search from inside the box failed, and the vehicle held there for 90 s.
+    reads regions. Regressions: open_field seeds 26 and 34 with specs from truth (e912de4), each
+    start inside a tree's keep-out, and seed 34 through the pipeline (6cdb917), inside the box guessed
+    above "tall grass" cut at the top of the view (3 m past the grass, up to 10.5 m): the clearance
+    ball stopped short of the thing, every search from inside the box failed, and the vehicle held
+    there for 90 s.
     """
     q = np.asarray(p, dtype=float)
     out: list[UnsafeRegion] = []
     for r in regions:
-        if r.is_dynamic or "t0_s" in r.meta or not r.contains(q):
+        if r.is_dynamic or "t0_s" in r.meta or r.meta.get(POSSIBLE_PERSON) or not r.contains(q):
             out.append(r)
             continue
         core_lo, core_hi = r.lo[:2] + r.buffer_m, r.hi[:2] - r.buffer_m
@@ -150,7 +154,7 @@ def no_closer_than_now(p: ArrayLike, regions: list[UnsafeRegion]) -> list[Unsafe
         grow = c - SHRINK_EPS_M
         lo = np.array([max(r.lo[0], core_lo[0] - grow), max(r.lo[1], core_lo[1] - grow), r.lo[2]])
         hi = np.array([min(r.hi[0], core_hi[0] + grow), min(r.hi[1], core_hi[1] + grow), r.hi[2]])
-        out.append(UnsafeRegion(lo, hi, r.obj_id, r.label, r.is_dynamic, grow, r.z_min, {**r.meta, SHRUNK: 1.0}))
+        out.append(UnsafeRegion(lo, hi, r.obj_id, r.label, r.is_dynamic, grow, r.z_min, dict(r.meta)))
     return out
 
 

@@ -156,13 +156,13 @@ class Replanner:
         ``z_floor_m``: the lowest altitude (m) a new path may take; ``floor_fn``: where the floor
         varies (the terrain), the floor at plan-view points ``(..., 2)``, ``z_floor_m`` its minimum.
         """
-        adopted = self._adopt_due(t, regions, pos)
+        adopted = self._adopt_due(t, regions)
         need = (
             self.force_replan
             or self.active is None
             or float(np.linalg.norm(self.active.goal_m - goal)) > GOAL_MOVED_REPLAN_M
             or t - self._last_replan_s >= self.settings.replan_period_s
-            or self.path_blocked(self.active, regions, pos)
+            or self.path_blocked(self.active, regions)
         )
         # at the full budget, failures are retried once per replan period, not back to back
         # (each costs ~16× a search: in lockstep the sim waits for it)
@@ -177,7 +177,7 @@ class Replanner:
                              daemon=True).start()
         return adopted
 
-    def _adopt_due(self, t: float, regions: list[UnsafeRegion], pos: FloatArray) -> bool:
+    def _adopt_due(self, t: float, regions: list[UnsafeRegion]) -> bool:
         job = self._job
         if job is None:
             return False
@@ -196,7 +196,7 @@ class Replanner:
             return True
         self.failed_searches += 1
         self._failed_in_row += 1
-        if self.active is not None and self.path_blocked(self.active, regions, pos):
+        if self.active is not None and self.path_blocked(self.active, regions):
             self.active = None  # never keep following a path into a region: hold instead
         return False
 
@@ -237,15 +237,17 @@ class Replanner:
         job.done.set()
 
     @staticmethod
-    def path_blocked(plan: ActivePlan, regions: list[UnsafeRegion], pos: FloatArray) -> bool:
+    def path_blocked(plan: ActivePlan, regions: list[UnsafeRegion]) -> bool:
         """Whether the plan's path ahead crosses a region: beyond its first segment, from the
         segment before the vehicle's nearest path point on (what lies behind is not flown again),
-        with the still keep-outs holding the vehicle at ``pos (3,)`` shrunk as for a search from
-        there (:func:`~.regions.no_closer_than_now`)."""
+        with the still keep-outs that held the path's start shrunk as for its search
+        (:func:`~.regions.no_closer_than_now`). Shrunk at the vehicle's position instead, a box
+        grows as the vehicle leaves it and a path along its old face reads as blocked: a replan
+        every tick, and the plan dropped (a hold inside the box) whenever one failed."""
         p = plan.path.p[max(1, plan.progress_idx - 1):]
         if not regions or len(p) < 2:
             return False  # the first segment starts in the start clearance: not checked
-        lo, hi = boxes_array(no_closer_than_now(pos, regions))
+        lo, hi = boxes_array(no_closer_than_now(plan.path.p[0], regions))
         return bool(np.any(segments_hit_boxes(p[:-1], p[1:], lo, hi)))
 
     def look_ahead_m(self, pos: FloatArray, distance_m: float) -> FloatArray | None:

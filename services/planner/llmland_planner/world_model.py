@@ -38,7 +38,7 @@ from llmland_schemas.frames import CameraFrame
 from .ground import GroundMap, ReachFloor
 from .hard_limit import PERSON_BODY_RADIUS_M, PERSON_MAX_HEIGHT_M, PersonHypothesis
 from .look_ahead import view_half_azimuth_rad
-from .regions import OVERFLY_CLEARANCE_M, UNSEEN_TOP, UnsafeRegion, from_obstacle
+from .regions import OVERFLY_CLEARANCE_M, POSSIBLE_PERSON, UNSEEN_TOP, UnsafeRegion, from_obstacle
 from .settings import PlannerSettings
 from .specs import AttachedSpec, PendingSpec, more_careful
 from .track_views import (
@@ -329,6 +329,9 @@ class WorldModel:
                               velocity_xy=tr.velocity_mps[:2] if v.moving else None,
                               horizon_s=s.sweep_horizon_s if v.moving else 0.0,
                               obj_id=tr.track_id, label=v.label, z_ground_m=z0, is_dynamic=v.dynamic)
+        if v.possible_person:
+            for b in boxes:
+                b.meta[POSSIBLE_PERSON] = 1.0
         if tr.touches_top and not v.moving and not v.human:
             # above what the side view saw, the thing may reach wider (a crown over its trunk); a
             # guess about a still thing, it yields to the landing disc whatever the class

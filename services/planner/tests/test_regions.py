@@ -87,22 +87,26 @@ def test_a_keep_out_holding_the_vehicle_shrinks_to_its_present_distance(seed: in
     """``no_closer_than_now``: the vehicle ends just outside the shrunk box; every point outside
     the shrunk box is at least as far (Chebyshev, plan view) from the thing as the vehicle is; the
     box never grows, and dynamic boxes and boxes not holding the vehicle are left as they are."""
-    from llmland_planner.regions import SHRINK_EPS_M, no_closer_than_now
+    from llmland_planner.regions import POSSIBLE_PERSON, SHRINK_EPS_M, no_closer_than_now
 
     rng = np.random.default_rng(seed)
     half, buffer = rng.uniform(0.1, 2.0, 2), float(rng.uniform(0.5, 4.0))
     (box,) = from_obstacle((0.0, 0.0), half, float(rng.uniform(0.5, 3.0)), buffer, 0.0)
     person = from_obstacle((0.0, 0.0), 0.3, 1.8, buffer, 3.0, is_dynamic=True)[0]
-    far = from_obstacle((50.0, 0.0), 0.5, 1.0, 1.0, 0.0)[0]
+    (stopped,) = from_obstacle((0.0, 0.0), 0.3, 1.8, buffer, 0.0)  # walked, then stood: a still box
+    stopped.meta[POSSIBLE_PERSON] = 1.0
+    sweep = from_obstacle((0.0, 0.0), 0.3, 1.8, buffer, 0.0, velocity_xy=(0.1, 0.0), horizon_s=1.0,
+                          is_dynamic=False)
     p = rng.uniform(box.lo, box.hi)
-    shrunk, same_person, same_far = no_closer_than_now(p, [box, person, far])
-    assert same_person is person and same_far is far
+    shrunk, *kept = no_closer_than_now(p, [box, person, stopped, *sweep])
+    assert all(a is b for a, b in zip(kept, [person, stopped, *sweep], strict=True))
     assert np.all(shrunk.lo >= box.lo - 1e-12) and np.all(shrunk.hi <= box.hi + 1e-12)
     c = float(np.max(np.abs(p[:2]) - half))  # Chebyshev distance from the footprint (m)
     if c <= SHRINK_EPS_M:
         assert shrunk is box  # over the thing: left to the start's clearance ball
         return
     assert not shrunk.contains(p)
+    assert shrunk.lo[2] == box.lo[2] and shrunk.hi[2] == box.hi[2]
     q = rng.uniform(box.lo, box.hi, (500, 3))
     outside = ~points_in_boxes(q, shrunk.lo[None], shrunk.hi[None])[:, 0]
     assert np.all(np.max(np.abs(q[outside, :2]) - half, axis=1) >= c - SHRINK_EPS_M - 1e-9)
