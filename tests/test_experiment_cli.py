@@ -12,6 +12,7 @@ from pathlib import Path
 import psutil
 import pytest
 
+from llmland.experiment import code_version
 from llmland.experiment.runner import WALL_COLUMNS
 
 from .conftest import BIN, REPO, run_cli
@@ -39,6 +40,8 @@ def test_two_trial_experiment_writes_its_folder_and_replays_identically(tmp_path
                         "time_to_land_s_median", "closest_person_m_p5", "spec_latency_ms_mean"}
     assert row["n"] == 2 and row["world"] == "open_field" and row["method"] == "llm-land"
     assert row["spec_latency_ms_mean"] == pytest.approx(200.0)
+    meta = json.loads((first / "meta.json").read_text())
+    assert meta["code"] == code_version() and meta["code"] in (first / "results.md").read_text()
     md = (first / "results.md").read_text()
     assert "96.0 %" in md and "llm-land" in md and "seeds: 3–4" in md  # the paper's number beside ours
     for png in ("success.png", "closest_person.png", "spec_latency.png", "trajectory_llm-land.png"):
@@ -58,6 +61,24 @@ def test_two_trial_experiment_writes_its_folder_and_replays_identically(tmp_path
     proc = run_cli(*ARGS, "--out", str(first), "--resume", timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert (first / "trials.csv").read_text() == before  # nothing flown again
+
+
+def test_the_code_version_names_the_commit_and_a_dirty_tree(tmp_path: Path) -> None:
+    """meta.json names what was flown: the commit, ``-dirty`` with uncommitted changes to tracked
+    files, ``unknown`` outside a git checkout."""
+    assert code_version(tmp_path) == "unknown"
+    git = ["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t"]
+    subprocess.run([*git, "init", "-q"], check=True)
+    (tmp_path / "a.txt").write_text("a\n")
+    subprocess.run([*git, "add", "a.txt"], check=True)
+    subprocess.run([*git, "commit", "-q", "-m", "a"], check=True)
+    head = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                          check=True).stdout.strip()
+    assert code_version(tmp_path) == head
+    (tmp_path / "b.txt").write_text("untracked\n")
+    assert code_version(tmp_path) == head
+    (tmp_path / "a.txt").write_text("changed\n")
+    assert code_version(tmp_path) == f"{head}-dirty"
 
 
 def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> None:

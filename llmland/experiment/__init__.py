@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import logging
 import shlex
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,26 @@ log = logging.getLogger(__name__)
 __all__ = ["EXPERIMENTS", "run_experiment"]
 
 
+#: the checkout this package runs from (``llmland/experiment`` → the repository root)
+REPO_ROOT = Path(__file__).resolve().parents[2]
+#: seconds a git query for the code version may take
+GIT_TIMEOUT_S = 5.0
+
+
+def code_version(root: Path = REPO_ROOT) -> str:
+    """The commit the experiment flies (``git rev-parse --short HEAD``), with ``-dirty`` when
+    tracked files differ from it; ``"unknown"`` outside a git checkout (an installed wheel) or
+    without git. Read when the run starts: the stacks load the code then."""
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, timeout=GIT_TIMEOUT_S, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=GIT_TIMEOUT_S, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return f"{head}-dirty" if dirty else head or "unknown"
+
+
 def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
                    methods: list[str] | None = None, worlds: list[str] | None = None,
                    latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
@@ -32,6 +53,7 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     """Run (or finish, with ``resume``) an experiment into ``out``; returns ``summary.json``."""
     todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
                         latency_model=latency_model, specs=specs, ggufs=ggufs)
+    code = code_version()
     runner = ExperimentRunner(todo, out, jobs=jobs, timeout_s=timeout_s, rrd=rrd, resume=resume,
                               log_level=log_level, label=experiment)
     if runner.skipped:
@@ -49,6 +71,8 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
         "seeds": f"{seed_base}–{seed_base + trials - 1}",
         "trials": len(rows),
         "machine": machine,
+        # a resumed run may fly two versions: both are named
+        "code": code if previous.get("code", code) == code else f"{previous['code']} then {code}",
         "jobs": jobs,
         "wall_time_s": round(float(previous.get("wall_time_s", 0.0)) + wall, 1),
     }

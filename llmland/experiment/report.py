@@ -101,7 +101,7 @@ def results_markdown(summary: dict[str, Any], meta: dict[str, Any]) -> str:
     lines = [f"# {exp}: results", "",
              f"- command: `{meta['command']}`",
              f"- seeds: {meta['seeds']}; latency model: `{summary['latency_model']}`; {meta['trials']} trials",
-             f"- machine: {meta['machine']}",
+             f"- machine: {meta['machine']}; code: {meta.get('code', 'not recorded')}",
              f"- wall time: {meta['wall_time_s'] / 60:.1f} min ({meta['jobs']} job(s))", ""]
     if exp == "exp3":
         lines += _exp3_table(summary)
