@@ -141,20 +141,21 @@ def no_closer_than_now(p: ArrayLike, regions: list[UnsafeRegion]) -> list[Unsafe
     there for 90 s.
     """
     q = np.asarray(p, dtype=float)
-    out: list[UnsafeRegion] = []
-    for r in regions:
-        if r.is_dynamic or "t0_s" in r.meta or r.meta.get(POSSIBLE_PERSON) or not r.contains(q):
-            out.append(r)
+    lo, hi = boxes_array(regions)
+    holding = points_in_boxes(q[None], lo, hi)[0]  # one vector test: this runs on every control tick
+    out = list(regions)
+    for i in np.flatnonzero(holding).tolist():
+        r = regions[i]
+        if r.is_dynamic or "t0_s" in r.meta or r.meta.get(POSSIBLE_PERSON):
             continue
         core_lo, core_hi = r.lo[:2] + r.buffer_m, r.hi[:2] - r.buffer_m
         c = float(np.max(np.maximum(core_lo - q[:2], q[:2] - core_hi)))  # Chebyshev distance, m
         if c <= SHRINK_EPS_M:
-            out.append(r)  # over the thing itself: the clearance ball's case
-            continue
+            continue  # over the thing itself: the clearance ball's case
         grow = c - SHRINK_EPS_M
-        lo = np.array([max(r.lo[0], core_lo[0] - grow), max(r.lo[1], core_lo[1] - grow), r.lo[2]])
-        hi = np.array([min(r.hi[0], core_hi[0] + grow), min(r.hi[1], core_hi[1] + grow), r.hi[2]])
-        out.append(UnsafeRegion(lo, hi, r.obj_id, r.label, r.is_dynamic, grow, r.z_min, dict(r.meta)))
+        new_lo = np.array([max(r.lo[0], core_lo[0] - grow), max(r.lo[1], core_lo[1] - grow), r.lo[2]])
+        new_hi = np.array([min(r.hi[0], core_hi[0] + grow), min(r.hi[1], core_hi[1] + grow), r.hi[2]])
+        out[i] = UnsafeRegion(new_lo, new_hi, r.obj_id, r.label, r.is_dynamic, grow, r.z_min, dict(r.meta))
     return out
 
 
