@@ -63,6 +63,14 @@ class ActivePlan:
     progress_idx: int = 0
     #: radius (m) of the clearance ball around the path's start its search waived (0: none)
     start_clearance_m: float = 0.0
+    #: index of the first path point outside that ball, at least 1 (``len(path.p)`` if none):
+    #: fixed per plan, so worked out once here rather than on every control tick
+    first_checked_idx: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        p = self.path.p
+        outside = np.flatnonzero(np.linalg.norm(p - p[0], axis=1) > self.start_clearance_m)
+        self.first_checked_idx = max(1, int(outside[0]) if outside.size else len(p))
 
 
 @dataclass
@@ -258,9 +266,7 @@ class Replanner:
         specs from truth); it is small against every buffer (≥ 1 m) and the hard 1 m limit is
         kept by the descent gate, not by this check (planner README)."""
         path = plan.path.p
-        outside = np.flatnonzero(np.linalg.norm(path - path[0], axis=1) > plan.start_clearance_m)
-        first = max(1, plan.progress_idx - 1, int(outside[0]) if outside.size else len(path))
-        p = path[first:]
+        p = path[max(plan.first_checked_idx, plan.progress_idx - 1):]
         if not regions or len(p) < 2:
             return False  # all of it in the start clearance ball the search waived
         lo, hi = boxes_array(no_closer_than_now(path[0], regions))
