@@ -71,12 +71,16 @@ class FrameProcessor:
         try:
             frame = self.check(payload)
         except FrameRejectedError as exc:
-            with self._lock:
-                self.dropped[exc.reason] += 1
-                n = self.dropped[exc.reason]
-            log.warning("dropped frame (%s, %d so far): %s", exc.reason, n, exc)
+            self.reject(exc)
             return None
         return self.describe(frame, t0)
+
+    def reject(self, exc: FrameRejectedError) -> None:
+        """Count and log one dropped frame under ``exc.reason`` (thread-safe)."""
+        with self._lock:
+            self.dropped[exc.reason] += 1
+            n = self.dropped[exc.reason]
+        log.warning("dropped frame (%s, %d so far): %s", exc.reason, n, exc)
 
     def describe(self, frame: CameraFrame, t0: float) -> SceneDescription:
         blobs = self.blobs(frame)

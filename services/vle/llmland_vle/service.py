@@ -28,7 +28,7 @@ from llmland_schemas.frames import peek_header
 from .backends import make_captioner
 from .captioner import Captioner, CaptionUnavailableError, bus_inputs
 from .crops import ImageError, load_image
-from .pipeline import FrameProcessor
+from .pipeline import FrameProcessor, FrameRejectedError
 from .settings import VleSettings
 from .worker import LatestFrameWorker
 
@@ -65,11 +65,15 @@ class VleService:
     # ------------------------------------------------------------------ frames
     def _on_frame(self, _key: str, payload: bytes) -> None:
         try:
-            if not peek_header(payload).perceive:  # depth-only frame (lockstep pacing, DESIGN §4)
-                self.skipped += 1
-                return
-        except (MessageError, ValueError):
-            pass  # the processor counts and drops it with its reason
+            header = peek_header(payload)
+        except (MessageError, ValueError) as exc:
+            # counted here, not in the worker: a newer frame could replace it there and it
+            # would be counted as stale instead of malformed
+            self.processor.reject(FrameRejectedError("malformed", f"malformed frame: {exc}"))
+            return
+        if not header.perceive:  # depth-only frame (lockstep pacing, DESIGN §4)
+            self.skipped += 1
+            return
         self.worker.submit((payload, time.perf_counter()))
 
     def _handle(self, item: tuple[bytes, float]) -> None:
