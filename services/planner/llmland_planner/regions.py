@@ -94,24 +94,29 @@ ESCAPE_DIRECTIONS = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -1.0, 
 ESCAPE_EPS_M = 1e-6
 
 
-def escape_distance_m(p: ArrayLike, regions: list[UnsafeRegion]) -> float:
+def escape_distance_m(p: ArrayLike, regions: list[UnsafeRegion], clear_m: float = 0.0) -> float:
     """Shortest straight way (m) out of *every* region from ``p (3,)``: along ±x, ±y or +z, the
-    distance to the first point inside none of them (0 when ``p`` is in none; inf if no direction
-    gets out). A start inside overlapping keep-outs (conservative buffers of unknown things) needs
-    this, not the depth in each box alone: leaving one box may land inside the next."""
+    distance to the first point at least ``clear_m`` (m) from all of them (0 when ``p`` is in none;
+    inf if no direction gets out). A start inside overlapping keep-outs (conservative buffers of
+    unknown things) needs this, not the depth in each box alone: leaving one box may land inside
+    the next; and with ``clear_m > 0`` a gap between two boxes narrower than ``2 clear_m`` is no way
+    out (a path search cannot fly through a slit of a few centimetres)."""
     start = np.asarray(p, dtype=float)
     if not any(r.contains(start) for r in regions):
         return 0.0
+    lo, hi = boxes_array(regions)
+    lo, hi = lo - clear_m, hi + clear_m
     best = math.inf
     for e in ESCAPE_DIRECTIONS:
         q, travelled = start.copy(), 0.0
         for _ in range(len(regions) + 1):
-            inside = [r for r in regions if r.contains(q)]
-            if not inside:
+            inside = points_in_boxes(q[None], lo, hi)[0]
+            if not inside.any():
                 best = min(best, travelled)
                 break
             # along e, each box is left where its face across e is passed
-            step = max(float(np.dot(np.where(e > 0, r.hi - q, q - r.lo), np.abs(e))) for r in inside) + ESCAPE_EPS_M
+            faces = np.where(e > 0, hi[inside] - q, q - lo[inside]) @ np.abs(e)
+            step = float(faces.max()) + ESCAPE_EPS_M
             q, travelled = q + e * step, travelled + step
     return best
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from llmland_planner.path import Path
 from llmland_planner.regions import UnsafeRegion
-from llmland_planner.replanning import PATH_GRAZE_M, ActivePlan, Replanner
+from llmland_planner.replanning import PATH_GRAZE_M, ActivePlan, Replanner, start_clearance_m
 
 STEP_M = 0.1
 
@@ -61,3 +61,52 @@ def test_what_lies_behind_the_vehicle_is_not_checked() -> None:
     assert Replanner.path_blocked(plan, [wall])
     plan.progress_idx = 35  # 0.5 m past the wall's far face
     assert not Replanner.path_blocked(plan, [wall])
+
+
+def _urban_21() -> tuple[np.ndarray, np.ndarray, list[UnsafeRegion]]:
+    """urban seed 21 through the pipeline, from its planner at t = 2 s (rounded): the drone holds
+    at its start inside an unknown's keep-out (a possible person: 5 m buffer, overfly above 5 m);
+    its nearest face (-x, 0.67 m) opens onto a 3 cm slit before a second unknown's box, and a
+    box guessed above "tall grass" cut at the top of the view stands 1 mm to its +x side."""
+    def unknown(lo: list[float], hi: list[float], obj_id: str) -> UnsafeRegion:
+        return UnsafeRegion(np.array(lo), np.array(hi), obj_id, "unknown", True, 5.0, 5.0, {"possible_person": 1.0})
+
+    regions = [
+        unknown([1.64, -13.95, -1.0], [12.07, -3.52, 5.0], "t5"),
+        unknown([-8.76, -15.9, -1.0], [1.61, -5.52, 5.0], "t6"),
+        UnsafeRegion(np.array([2.313, -12.5, 2.76]), np.array([9.57, -4.52, 10.5]), "t2", "tall grass", False, 2.9,
+                     1.5, {"unseen_top": 1.0}),
+        UnsafeRegion(np.array([2.196, -7.1, -1.0]), np.array([14.0, 4.54, 10.5]), "t1", "parked car", False, 5.0, 1.5),
+    ]
+    return np.array([2.312, -8.04, 3.75]), np.array([-0.1, 0.1, 3.5]), regions
+
+
+def test_a_slit_between_two_keep_outs_is_no_way_out_of_them() -> None:
+    from llmland_planner.regions import escape_distance_m
+
+    start, _, regions = _urban_21()
+    assert escape_distance_m(start, regions) == pytest.approx(0.672, abs=1e-3)  # into the slit
+    assert escape_distance_m(start, regions, clear_m=0.3) > 1.0
+
+
+def test_a_start_beside_a_slit_gets_a_ball_that_leaves_yet_reaches_no_thing() -> None:
+    """The ball reached 0.97 m (0.67 m into the slit + 0.3 m): every search from the start failed
+    and the drone held there for 90 s. It must now let the search out, and stop short of every
+    thing (each box less its buffer), held or not: the guessed grass's seen footprint is 2.9 m
+    away."""
+    from dataclasses import replace
+
+    from llmland_planner.search import SearchConfig, plan
+
+    start, goal, regions = _urban_21()
+    radius = start_clearance_m(start, regions)
+    for r in regions:
+        core = UnsafeRegion(r.lo + [r.buffer_m, r.buffer_m, 0.0], r.hi - [r.buffer_m, r.buffer_m, 0.0])
+        assert core.signed_distance(start) >= radius - 1e-9, r.obj_id
+    cfg = SearchConfig(time_budget_s=float("inf"), max_expansions=6400, z_floor_m=3.45, clearance_radius_m=radius,
+                       workspace_lo=(-30.0, -30.0, -1.0), workspace_hi=(30.0, 30.0, 10.0))
+    path = plan(start, np.zeros(3), goal, regions, cfg)
+    assert path is not None
+    far = np.linalg.norm(path.p - start, axis=1) > radius
+    assert not any(r.contains(p) for r in regions for p in path.p[far][:-1])
+    assert plan(start, np.zeros(3), goal, regions, replace(cfg, clearance_radius_m=0.672 + 0.3)) is None  # before
