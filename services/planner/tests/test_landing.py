@@ -227,6 +227,7 @@ def test_the_hold_is_the_lowest_height_the_untracked_bound_passes_from() -> None
 
     around = Surroundings([], [], 0.0, lambda _d: [], coverage_at=narrow_low)
     h = logic.observation_height_m(S.cruise_altitude_m, 6.0, around)
+    assert h is not None
     assert h == pytest.approx(3.9) and margin(h, narrow_low) >= 0.0 > margin(h - 0.1, narrow_low)
     assert logic.observation_height_m(S.cruise_altitude_m, 3.8, around) is None  # never above the top given
     # hold heights: the approach over the buffer, the hold from there

@@ -1,12 +1,14 @@
 """Planner ticks: a regression test for a closed-loop bug, yaw through ±π, looking along the path."""
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
 from llmland_planner.hard_limit import REACH_CEILING_M
 from llmland_planner.landing import Phase
 from llmland_planner.planner import REACH_FLOOR_MARGIN_M, YAW_LOOK_AHEAD_M, Planner
+from llmland_planner.search import SearchConfig
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import MissionGoal, VehicleState
 
@@ -33,11 +35,21 @@ def test_the_reach_floor_follows_the_vehicle_down_only_while_it_takes_off(monkey
     import llmland_planner.replanning as planner_module
 
     floors: list[float] = []
-    monkeypatch.setattr(planner_module, "plan", lambda pos, vel, goal, regions, cfg, **kw: floors.append(cfg.z_floor_m))
+
+    def recording_plan(pos: object, vel: object, goal: object, regions: object, cfg: SearchConfig,
+                       **kw: object) -> None:
+        floors.append(cfg.z_floor_m)  # and no path: the vehicle holds
+
+    monkeypatch.setattr(planner_module, "plan", recording_plan)
     pl = Planner()
     mpc_floors: list[float] = []
     solve = pl.mpc.solve
-    monkeypatch.setattr(pl.mpc, "solve", lambda *a, **kw: (mpc_floors.append(kw["z_floor_m"]), solve(*a, **kw))[1])
+
+    def recording_solve(*a: Any, **kw: Any) -> Any:
+        mpc_floors.append(kw["z_floor_m"])
+        return solve(*a, **kw)
+
+    monkeypatch.setattr(pl.mpc, "solve", recording_solve)
     pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, -9, 2.0), target_m=(0, 0, 0),
                          clock="lockstep"))
     pl.tick(_state((0.0, -9.0, 2.0)))  # taking off from 2 m: the floor is under the vehicle
@@ -182,8 +194,9 @@ def test_look_ahead_is_the_path_end_near_the_goal():
     p = np.column_stack([t, np.zeros_like(t), np.full_like(t, 3.0)])
     assert pl.paths.look_ahead_m(np.zeros(3), 3.0) is None
     pl.paths.active = ActivePlan(Path(t, p, np.gradient(p, t, axis=0)), [], p[-1], 0.0, 1.0)
-    assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 3.0), p[-1])
-    assert np.allclose(pl.paths.look_ahead_m(np.zeros(3), 0.5), p[10])
+    far, near = pl.paths.look_ahead_m(np.zeros(3), 3.0), pl.paths.look_ahead_m(np.zeros(3), 0.5)
+    assert far is not None and near is not None
+    assert np.allclose(far, p[-1]) and np.allclose(near, p[10])
 
 
 def test_look_ahead_starts_from_the_progress_and_measures_horizontally():
@@ -207,6 +220,7 @@ def test_the_approach_waits_until_the_camera_faces_the_way_ahead(monkeypatch, en
 
     pl = Planner(PlannerSettings(look_before_flying=enabled))
     pl.start(MissionGoal(episode_id="e", method="baseline", start_m=(0, 0, 3), target_m=(10, 0, 0)))
+    assert pl.landing is not None and pl.world is not None
     pl.landing.climbed = True
     path = _backwards_detour()
     pl.paths.active = ActivePlan(path, [], np.array([10.0, 0.0, 3.0]), 0.0, 1.0)
@@ -251,6 +265,7 @@ def test_with_no_path_the_camera_turns_to_the_nearest_thing_of_unknown_class(met
 
     pl = Planner()
     pl.start(MissionGoal(episode_id="e", method=method, start_m=(0, 0, 3), target_m=(10, 0, 0)))
+    assert pl.world is not None
     lo, hi = np.array([-0.2, 4.8, 0.0]), np.array([0.2, 5.2, 4.0])  # a trunk 5 m to the left (+y)
     blob = Blob(blob_id=0, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo,
                 n_points=100, bbox_px=(0, 0, 10, 10), footprint_radius_m=0.3)
