@@ -233,3 +233,30 @@ def test_a_way_round_a_wide_tall_wall_from_its_face_is_found_within_the_first_bu
     assert path is not None
     _assert_clear(path, [WIDE_WALL], WALL_CFG)
     assert path.expansions <= 400, path.expansions  # the lockstep budget of a first search
+
+
+def _pocket_with_a_slit() -> list[UnsafeRegion]:
+    """Tall walls (to 10.5 m, above the 10 m ceiling) round a 6 m pocket at the origin whose only
+    way out is a 0.7 m slit in its west wall; the goal lies east, beyond the east wall."""
+    walls = [((-9.0, 3.0), (9.0, 4.5)), ((-9.0, -4.5), (9.0, -3.0)), ((3.0, -4.5), (4.5, 4.5)),
+             ((-4.5, 0.35), (-3.0, 4.5)), ((-4.5, -4.5), (-3.0, -0.35))]
+    return [UnsafeRegion(np.array([x0, y0, -1.0]), np.array([x1, y1, 10.5]), obj_id=f"w{i}")
+            for i, ((x0, y0), (x1, y1)) in enumerate(walls)]
+
+
+def test_a_start_enclosed_but_for_a_slit_reads_the_way_round() -> None:
+    """urban seed 12 alone at fixed:40: the vehicle held in a pocket whose exits (a 0.7 m slit, a
+    1.2 m lane) the free-distance grid closed, since it blocks every cell a box touches. The start
+    read the straight line through the walls and every search spent its budget in the pocket."""
+    from dataclasses import replace
+
+    regions = _pocket_with_a_slit()
+    start, goal = np.array([0.0, 0.0, 4.0]), np.array([12.0, 0.0, 4.0])
+    cfg = replace(CFG, clearance_radius_m=0.3, z_floor_m=3.0, workspace_lo=(-20.0, -20.0, -1.0),
+                  workspace_hi=(20.0, 20.0, 10.0), max_expansions=6400)
+    free = _FreeDistance(regions, start, goal, cfg)
+    assert float(free(start[None])[0]) > 30.0  # out west through the slit, round a wall, back east
+    path = plan(start, np.zeros(3), goal, regions, cfg)
+    assert path is not None
+    assert path.p[:, 0].min() < -4.5  # it left through the slit
+    _assert_clear(path, regions, cfg)
