@@ -6,6 +6,7 @@ import subprocess
 import time
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
+from typing import Literal
 
 import pytest
 from llmland_reasoner.decide import LlmDecider
@@ -73,7 +74,8 @@ def test_another_reading_may_only_add_care() -> None:
 class _AlwaysOther:
     """A decider that takes every other reading (the worst an LLM could do for accuracy)."""
 
-    name = source = "llm"
+    name = "llm"
+    source: Literal["llm", "retrieval"] = "llm"
 
     def decide(self, caption: str, grounded: Sequence[Grounded]) -> list[Alternative | None]:
         return [g.alternatives[-1] if g.alternatives else None for g in grounded]

@@ -144,6 +144,12 @@ def test_segmentation_maps_to_world_objects_and_timing(client: int) -> None:
         logger.info("render 384x384 urban 'tiny' request on an EGL client: %.1f ms", 1e3 * min(t_tiny))
 
 
+def _down_egl_camera(client: int, shadows: bool = False) -> RgbdCamera:
+    """A small straight-down EGL camera at the vehicle's origin."""
+    return RgbdCamera(client, width=96, height=96, hfov_deg=60.0, pitch_down_deg=90.0,
+                      mount_offset_m=(0.0, 0.0, 0.0), renderer="egl", shadows=shadows)
+
+
 def test_egl_without_shadows_skips_the_shadow_pass_and_keeps_depth(client: int) -> None:
     """The shadow-free EGL pass (the default) gives the shadow-mapped pass's depth bit for bit,
     and the same ground colours wherever the camera is: its texture coordinates are the world's
@@ -154,9 +160,8 @@ def test_egl_without_shadows_skips_the_shadow_pass_and_keeps_depth(client: int) 
     shapes.create_ground(client, np.random.default_rng(3))
     box_shape = p.createVisualShape(p.GEOM_BOX, halfExtents=[0.5, 0.5, 0.5], physicsClientId=client)
     box = p.createMultiBody(0, -1, box_shape, [1.0, 0.5, 0.5], physicsClientId=client)
-    down = dict(width=96, height=96, hfov_deg=60.0, pitch_down_deg=90.0, mount_offset_m=(0.0, 0.0, 0.0))
-    plain = RgbdCamera(client, renderer="egl", **down)
-    shadowed = RgbdCamera(client, renderer="egl", shadows=True, **down)
+    plain = _down_egl_camera(client)
+    shadowed = _down_egl_camera(client, shadows=True)
     quat = (0.0, 0.0, 0.0, 1.0)
     for pos in ((0.0, 0.0, 6.0), (1.3, 0.7, 6.0), (-2.9, 3.1, 4.0)):
         a, b = plain.render(pos, quat), shadowed.render(pos, quat, with_seg=True)

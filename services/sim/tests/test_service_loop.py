@@ -79,6 +79,7 @@ def test_without_commands_the_failsafe_climbs_above_peoples_reach_and_holds() ->
         for _ in range(int(6.0 * settings.ctrl_hz)):  # 6 s without a command
             sim.apply_command(None)
             sim.step()
+        assert sim.quad is not None
         pos = sim.quad.state().pos_m
     finally:
         sim.close()

@@ -47,10 +47,15 @@ def pair():
 
 def test_garbage_is_counted_and_dropped_and_valid_messages_still_arrive(pair):
     a, b = pair
-    got = []
+    got: list[VehicleState] = []
     ev = threading.Event()
     k = key("d0", Topic.STATE)
-    a.subscribe(k, VehicleState, lambda _k, m: (got.append(m), ev.set()))
+
+    def on_state(_k: str, m: VehicleState) -> None:
+        got.append(m)
+        ev.set()
+
+    a.subscribe(k, VehicleState, on_state)
     import time
 
     time.sleep(0.3)

@@ -1,4 +1,5 @@
 import json
+from typing import Any
 
 import pytest
 from llmland_schemas import (
@@ -17,11 +18,10 @@ from llmland_schemas import (
 )
 
 
-def _state(**kw):
-    base = dict(position_m=(0, 0, 1), velocity_mps=(0, 0, 0), quat_xyzw=(0, 0, 0, 1),
-                euler_rpy_rad=(0, 0, 0), body_rates_rps=(0, 0, 0))
-    base.update(kw)
-    return VehicleState(**base)
+def _state(position_m: tuple[float, float, float] = (0, 0, 1), **envelope: Any) -> VehicleState:
+    """A vehicle at rest at ``position_m``; ``envelope``: any other fields (drone_id, stamp, ...)."""
+    return VehicleState(position_m=position_m, velocity_mps=(0, 0, 0), quat_xyzw=(0, 0, 0, 1),
+                        euler_rpy_rad=(0, 0, 0), body_rates_rps=(0, 0, 0), **envelope)
 
 
 def test_round_trip_keeps_every_field():
