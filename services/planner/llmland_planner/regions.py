@@ -77,6 +77,13 @@ class UnsafeRegion:
         q = np.asarray(p, dtype=float)
         return bool(np.all(q >= self.lo - margin_m) and np.all(q <= self.hi + margin_m))
 
+    def footprint_xy(self) -> tuple[FloatArray, FloatArray]:
+        """The thing the keep-out is grown around, in plan view: ``(lo (2,), hi (2,))`` of the box
+        less its ``buffer_m`` along x and y (what :func:`from_obstacle` adds), m; an axis the buffer
+        overfills collapses to the box's centre."""
+        mid = 0.5 * (self.lo[:2] + self.hi[:2])
+        return np.minimum(self.lo[:2] + self.buffer_m, mid), np.maximum(self.hi[:2] - self.buffer_m, mid)
+
     def signed_distance(self, p: ArrayLike) -> float:
         """Box SDF (m) at ``p (3,)``: positive outside, negative inside (depth to nearest face)."""
         q = np.asarray(p, dtype=float)
@@ -153,7 +160,7 @@ def no_closer_than_now(p: ArrayLike, regions: list[UnsafeRegion]) -> list[Unsafe
         r = regions[i]
         if r.is_dynamic or "t0_s" in r.meta or r.meta.get(POSSIBLE_PERSON):
             continue
-        core_lo, core_hi = r.lo[:2] + r.buffer_m, r.hi[:2] - r.buffer_m
+        core_lo, core_hi = r.footprint_xy()
         c = float(np.max(np.maximum(core_lo - q[:2], q[:2] - core_hi)))  # Chebyshev distance, m
         if c <= SHRINK_EPS_M:
             continue  # over the thing itself: the clearance ball's case

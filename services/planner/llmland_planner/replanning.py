@@ -111,20 +111,16 @@ def start_clearance_m(pos: FloatArray, regions: list[UnsafeRegion]) -> float:
 
 
 def _thing_distance_m(pos: FloatArray, r: UnsafeRegion) -> float | None:
-    """Distance (m) from ``pos (3,)`` to the thing a keep-out box is grown around: the box less its
-    ``buffer_m`` horizontally (what :func:`~.regions.from_obstacle` adds), over the box's height.
-    For a guess above a cut view (``meta[UNSEEN_TOP]``) it is 0 over that footprint; for any
-    other box, ``None`` (no bound) when the vehicle is horizontally over the thing: its way out is
-    up, and the box's depth bounds the ball."""
-    b = r.buffer_m
-    lo, hi = r.lo + [b, b, 0.0], r.hi - [b, b, 0.0]
-    mid = 0.5 * (r.lo + r.hi)
-    core = UnsafeRegion(np.minimum(lo, mid), np.maximum(hi, mid))
-    d = max(0.0, core.signed_distance(pos))
-    if r.meta.get(UNSEEN_TOP):
-        return d
-    over = bool(np.all((pos[:2] >= core.lo[:2]) & (pos[:2] <= core.hi[:2])))
-    return None if over else d
+    """Distance (m) from ``pos (3,)`` to the thing a keep-out box is grown around: its footprint
+    (:meth:`~.regions.UnsafeRegion.footprint_xy`) over the box's height. For a guess above a cut
+    view (``meta[UNSEEN_TOP]``) it is 0 over that footprint; for any other box, ``None`` (no bound)
+    when the vehicle is horizontally over the thing: its way out is up, and the box's depth bounds
+    the ball."""
+    lo, hi = r.footprint_xy()
+    if not r.meta.get(UNSEEN_TOP) and np.all((pos[:2] >= lo) & (pos[:2] <= hi)):
+        return None
+    core = UnsafeRegion(np.append(lo, r.lo[2]), np.append(hi, r.hi[2]))
+    return max(0.0, core.signed_distance(pos))
 
 
 class Replanner:
