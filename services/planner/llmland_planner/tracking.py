@@ -69,6 +69,9 @@ SIGHTINGS_KEPT = 64
 RIGID_PATH_KEPT = 64
 #: A sighting this close in time (s) to a frame's stamp was made from that frame's instant.
 SAME_INSTANT_S = 1e-3
+#: A side view that cuts a track at the top but sees no higher than its known top plus this (m;
+#: depth noise at the top edge, well under the 0.4 m height gate) leaves the known top standing.
+TOP_SEEN_TOLERANCE_M = 0.1
 
 
 def _minmod(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -117,8 +120,12 @@ class TrackedObstacle:
     hits: int = 1
     missed_s: float = 0.0
     meta: dict[str, Any] = field(default_factory=dict)
-    #: the last side view cut it at the top of the image: its top is unknown (at least ``hi_m[2]``)
+    #: the last side view cut it at the top of the image and saw more of it than its known top
+    #: (``top_seen_m``): its top is unknown (at least ``hi_m[2]``)
     touches_top: bool = False
+    #: the highest top (z, m) a side view saw whole, with sky or background above it; None until
+    #: one does (:meth:`ObstacleTracker._fold_top`)
+    top_seen_m: float | None = None
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
@@ -267,8 +274,9 @@ class ObstacleTracker:
             velocity_mps=np.zeros(3),
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
-            touches_top=blob.touches_top and source != "down",
         )
+        if source != "down":
+            self._fold_top(track, blob)
         self._last_by_source[(track.track_id, source)] = (_Seen.of(blob), stamp_s)
         track.sightings.append((stamp_s, track.centroid_m.copy()))
         self._next_id += 1
@@ -291,15 +299,40 @@ class ObstacleTracker:
             a = self.velocity_alpha
             self._raw_velocity[track.track_id] = sample if previous is None else a * sample + (1.0 - a) * previous
         track.hits += 1
-        if source != "down":  # a downward view sees tops; a side view may cut them off
-            track.touches_top = blob.touches_top
         track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
+        if source != "down":  # a downward view sees tops; a side view may cut them off
+            self._fold_top(track, blob)
         track.last_seen_s = max(track.last_seen_s, stamp_s)
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
+
+    @staticmethod
+    def _fold_top(track: TrackedObstacle, blob: Blob) -> None:
+        """Fold a side view's top into ``track`` (after its bounds took the blob's).
+
+        A view that sees the thing whole (not cut at the image's top edge) sees its top, and the
+        space straight above it: ``top_seen_m`` keeps the highest such top. A later view that cuts
+        the thing at the top (the drone came close, the camera looks down) but sees no higher
+        than that top plus :data:`TOP_SEEN_TOLERANCE_M` shows nothing new above: the top stays
+        known and ``hi_m[2]`` stays at it. Before, the cut view made the top unknown and the
+        keep-out went up to the altitude ceiling: a parked car seen whole at 1.5 m became a
+        10.5 m wall when the drone came near (urban seed 12, 31). A cut view that sees higher than
+        the known top (a trunk whose crown was not in the earlier view's blob) makes it unknown
+        again, as before. What stood above the thing in the whole view was in that view: its own
+        blob and track (planner README, "Known tops").
+        """
+        top = float(blob.hi_m[2])
+        if not blob.touches_top:
+            track.top_seen_m = top if track.top_seen_m is None else max(track.top_seen_m, top)
+            track.touches_top = False
+        elif track.top_seen_m is not None and top <= track.top_seen_m + TOP_SEEN_TOLERANCE_M:
+            track.touches_top = False
+            track.hi_m[2] = max(track.hi_m[2], track.top_seen_m)
+        else:
+            track.touches_top = True
 
     @staticmethod
     def _extend_rigid_path(track: TrackedObstacle, source: str, step_m: FloatArray) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from llmland_planner.tracking import ObstacleTracker
 from llmland_schemas.depth import Blob
@@ -220,3 +222,43 @@ def test_a_still_object_whose_bounds_jitter_back_and_forth_has_a_small_excursion
     xs = [2.0 + (0.15 if k % 2 else 0.0) + rng.uniform(-0.02, 0.02) for k in range(60)]
     (t,) = _walk(xs).tracks()
     assert t.rigid_excursion_m < 0.25
+
+
+def _cut(b: Blob, seen_height_m: float) -> Blob:
+    """``b`` seen from close by, cut at the top of the image after ``seen_height_m``."""
+    hi = np.array([*b.hi_m[:2], seen_height_m])
+    return replace(b, hi_m=hi, size_m=hi - b.lo_m, centroid_m=(b.lo_m + hi) / 2, touches_top=True)
+
+
+def test_a_top_seen_whole_stays_known_when_a_closer_view_cuts_it() -> None:
+    """A parked car seen whole (1.5 m), then cut at the top at 1.0 m as the drone comes near: its
+    top is still known, so its keep-out does not go up to the altitude ceiling (urban 12, 31)."""
+    tracker = ObstacleTracker()
+    car = _box((7.1, -2.6), (8.9, 1.0), height_m=1.5)
+    tracker.update([car], 0.0)
+    (tr,) = tracker.update([_cut(car, 1.0)], DT_S)
+    assert tr.top_seen_m == 1.5
+    assert not tr.touches_top and tr.height_m == 1.5
+    (tr,) = tracker.update([_cut(car, 1.5 + 0.05)], 2 * DT_S)  # the top edge's depth noise
+    assert not tr.touches_top
+
+
+def test_a_cut_view_that_sees_above_the_known_top_makes_it_unknown() -> None:
+    """A trunk seen whole to 1.6 m (its crown another blob), then cut at 2.5 m: more of it than was
+    known, so its top is unknown again; a later whole view makes it known at the new top."""
+    tracker = ObstacleTracker()
+    trunk = _box((1.0, -6.3), (1.3, -5.9), height_m=1.6)
+    tracker.update([trunk], 0.0)
+    (tr,) = tracker.update([_cut(trunk, 2.5)], DT_S)
+    assert tr.touches_top and tr.height_m == 2.5
+    (tr,) = tracker.update([_box((1.0, -6.3), (1.3, -5.9), height_m=4.8)], 2 * DT_S)
+    assert not tr.touches_top and tr.top_seen_m == 4.8
+
+
+def test_a_track_first_seen_cut_has_an_unknown_top_and_the_downward_camera_sets_none() -> None:
+    tracker = ObstacleTracker()
+    wall = _box((-12.0, -11.8), (-4.0, -11.6), height_m=2.0)
+    (tr,) = tracker.update([_cut(wall, 2.0)], 0.0)
+    assert tr.touches_top and tr.top_seen_m is None
+    (tr,) = tracker.update([wall], DT_S, source="down")  # from above: no side view of its top
+    assert tr.touches_top and tr.top_seen_m is None
