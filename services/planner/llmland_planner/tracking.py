@@ -126,6 +126,8 @@ class TrackedObstacle:
     #: the highest top (z, m) a side view saw whole, with sky or background above it; None until
     #: one does (:meth:`ObstacleTracker._fold_top`)
     top_seen_m: float | None = None
+    #: ``(lo (2,), hi (2,))`` m: the plan-view bounds of the views that saw it whole, merged
+    whole_xy_m: tuple[FloatArray, FloatArray] | None = None
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
@@ -313,24 +315,33 @@ class ObstacleTracker:
     def _fold_top(track: TrackedObstacle, blob: Blob) -> None:
         """Fold a side view's top into ``track`` (after its bounds took the blob's).
 
-        A view that sees the thing whole (not cut at the image's top edge) sees its top, and the
-        space straight above it: ``top_seen_m`` keeps the highest such top. A later view that cuts
-        the thing at the top (the drone came close, the camera looks down) but sees no higher
-        than that top plus :data:`TOP_SEEN_TOLERANCE_M` shows nothing new above: the top stays
-        known and ``hi_m[2]`` stays at it. Before, the cut view made the top unknown and the
-        keep-out went up to the altitude ceiling: a parked car seen whole at 1.5 m became a
-        10.5 m wall when the drone came near (urban seed 12, 31). A cut view that sees higher than
-        the known top (a trunk whose crown was not in the earlier view's blob) makes it unknown
-        again, as before. What stood above the thing in the whole view was in that view: its own
-        blob and track (planner README, "Known tops").
+        A view that sees the thing whole (not cut at the image's top edge) sees its top and the
+        space straight above it: ``top_seen_m`` keeps the highest such top and ``whole_xy_m`` the
+        merged plan-view bounds of those views. A later, closer view that cuts a thing that has
+        not moved at the top, but sees no higher than that top plus :data:`TOP_SEEN_TOLERANCE_M`,
+        shows nothing new above it: the top stays known, and the bounds keep that top and the
+        whole views' footprint (a cut trunk's blob matched to its crown's track must not shrink
+        the crown to the trunk). Before, the cut view made the top unknown and the keep-out went up to the
+        altitude ceiling: a parked car seen whole at 1.5 m became a 10.5 m wall when the drone came
+        near (urban seeds 12, 31). A cut view that sees higher than the known top (a trunk whose
+        crown was its own blob), or of a thing that has moved, leaves the top unknown, as before.
+        Whatever stood above the thing was in the whole view: its own blob and track (planner
+        README, "Known tops").
         """
         top = float(blob.hi_m[2])
         if not blob.touches_top:
             track.top_seen_m = top if track.top_seen_m is None else max(track.top_seen_m, top)
+            lo, hi = blob.lo_m[:2], blob.hi_m[:2]
+            if track.whole_xy_m is not None:  # the views' union: a crown seen once stays in it
+                lo, hi = np.minimum(lo, track.whole_xy_m[0]), np.maximum(hi, track.whole_xy_m[1])
+            track.whole_xy_m = (np.array(lo, dtype=np.float64), np.array(hi, dtype=np.float64))
             track.touches_top = False
-        elif track.top_seen_m is not None and top <= track.top_seen_m + TOP_SEEN_TOLERANCE_M:
+        elif (track.top_seen_m is not None and track.whole_xy_m is not None and not track.has_moved
+              and top <= track.top_seen_m + TOP_SEEN_TOLERANCE_M):
             track.touches_top = False
             track.hi_m[2] = max(track.hi_m[2], track.top_seen_m)
+            track.lo_m[:2] = np.minimum(track.lo_m[:2], track.whole_xy_m[0])
+            track.hi_m[:2] = np.maximum(track.hi_m[:2], track.whole_xy_m[1])
         else:
             track.touches_top = True
 

@@ -262,3 +262,23 @@ def test_a_track_first_seen_cut_has_an_unknown_top_and_the_downward_camera_sets_
     assert tr.touches_top and tr.top_seen_m is None
     (tr,) = tracker.update([wall], DT_S, source="down")  # from above: no side view of its top
     assert tr.touches_top and tr.top_seen_m is None
+
+
+def test_a_cut_trunk_matched_to_its_crowns_track_keeps_the_crowns_footprint_and_top() -> None:
+    """The crown (4.4 m wide, to 6.5 m) seen whole, then only the trunk under it, cut at 2.4 m, is
+    matched to the crown's track: the top stays 6.5 m and the footprint the crown's."""
+    tracker = ObstacleTracker()
+    crown = _box((-1.1, -8.3), (3.3, -3.9), height_m=6.5)
+    tracker.update([crown], 0.0)
+    (tr,) = tracker.update([_cut(_box((0.95, -6.25), (1.25, -5.95), height_m=6.5), 2.4)], DT_S)
+    assert not tr.touches_top and tr.height_m == 6.5
+    assert np.allclose(tr.lo_m[:2], [-1.1, -8.3]) and np.allclose(tr.hi_m[:2], [3.3, -3.9])
+
+
+def test_a_thing_that_has_moved_and_is_cut_at_the_top_has_an_unknown_top() -> None:
+    tracker = ObstacleTracker()
+    car = _box((7.1, -2.6), (8.9, 1.0), height_m=1.5)
+    (tr,) = tracker.update([car], 0.0)
+    tr.has_moved = True
+    (tr,) = tracker.update([_cut(car, 1.0)], DT_S)
+    assert tr.touches_top and tr.height_m == 1.0
