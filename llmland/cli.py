@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import logging
 import os
@@ -354,6 +355,8 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
     configure_logging(args.log_level)
+    # `kill -USR1 <pid>` prints every thread's stack to stderr: what a run that hangs waits on
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     # SIGTERM unwinds like Ctrl-C, so every context manager stops the services it started
     signal.signal(signal.SIGTERM, raise_keyboard_interrupt)
     try:

@@ -24,6 +24,20 @@ ARGS = ["experiment", "exp1", "--trials", "2", "--seed-base", "3", "--methods", 
         "--latency-model", "fixed:200", "--timeout", "20"]
 
 
+def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, timeout_s: float = 30.0) -> int:
+    """``proc``'s exit code; if it has not exited within ``timeout_s``, fail with every thread's
+    stack (the CLI dumps them on SIGUSR1) and the tail of its stderr: what it was waiting on."""
+    try:
+        return proc.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGUSR1)
+        time.sleep(2.0)
+        proc.kill()
+        proc.wait()
+        pytest.fail(f"the CLI did not exit within {timeout_s:.0f} s; its stderr ends:\n"
+                    + stderr_path.read_text(errors="replace")[-8000:])
+
+
 def _rows_without_wall_columns(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as fh:
         return [{k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(fh)]
@@ -83,9 +97,11 @@ def test_the_code_version_names_the_commit_and_a_dirty_tree(tmp_path: Path) -> N
 
 def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> None:
     """SIGTERM (or Ctrl-C) mid-trial stops every service of every job; --resume flies what is left."""
-    proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "2", "--methods", "baseline",
-                             "--jobs", "2", "--out", str(tmp_path)], cwd=REPO,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    stderr_path = tmp_path / "cli.stderr"
+    with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
+        proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "2", "--methods",
+                                 "baseline", "--jobs", "2", "--out", str(tmp_path / "out")], cwd=REPO,
+                                stdout=subprocess.DEVNULL, stderr=err)
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + STARTUP_WAIT_S
     services: list[psutil.Process] = []
@@ -94,11 +110,11 @@ def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> Non
         time.sleep(0.2)
     assert len(services) >= 4, "the stacks did not start"
     proc.send_signal(signal.SIGTERM)
-    assert proc.wait(timeout=30) != 0
+    assert _exit_code(proc, stderr_path) != 0
     gone, alive = psutil.wait_procs(services, timeout=10)
     assert not alive, [p.pid for p in alive]
-    if (tmp_path / "trials.csv").exists():  # a trial that ended before the signal is kept, the rest is not
-        assert len(_rows_without_wall_columns(tmp_path / "trials.csv")) < 2
+    if (tmp_path / "out" / "trials.csv").exists():  # a trial that ended before the signal is kept, the rest is not
+        assert len(_rows_without_wall_columns(tmp_path / "out" / "trials.csv")) < 2
 
 
 def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path: Path) -> None:
@@ -106,8 +122,11 @@ def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path:
     Ctrl-C again, stop every service at once. Before, the first interrupted ``Thread.join`` marked
     the running job as stopped (CPython 3.11), the CLI exited at once and all five processes
     (four services and the LLM worker) were orphaned."""
-    proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "1", "--methods", "llm-land",
-                             "--out", str(tmp_path)], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    stderr_path = tmp_path / "cli.stderr"
+    with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
+        proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "1", "--methods",
+                                 "llm-land", "--out", str(tmp_path / "out")], cwd=REPO, stdout=subprocess.DEVNULL,
+                                stderr=err)
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + STARTUP_WAIT_S
     services: list[psutil.Process] = []
@@ -118,7 +137,7 @@ def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path:
     proc.send_signal(signal.SIGINT)
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)
-    assert proc.wait(timeout=30) != 0
+    assert _exit_code(proc, stderr_path) != 0
     gone, alive = psutil.wait_procs(services, timeout=10)
     assert not alive, [(p.pid, p.name()) for p in alive]
 
