@@ -24,6 +24,13 @@ ARGS = ["experiment", "exp1", "--trials", "2", "--seed-base", "3", "--methods", 
         "--latency-model", "fixed:200", "--timeout", "20"]
 
 
+def _interruptible() -> None:
+    """``preexec_fn``: the CLI gets Ctrl-C's default action whatever the test runner's is. A shell
+    runs background jobs with SIGINT ignored, the child inherits that, and Python then installs no
+    handler: the CLI never sees the test's SIGINT (the suite started with ``nohup … &``)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, timeout_s: float = 30.0) -> int:
     """``proc``'s exit code; if it has not exited within ``timeout_s``, fail with every thread's
     stack (the CLI dumps them on SIGUSR1) and the tail of its stderr: what it was waiting on."""
@@ -126,7 +133,7 @@ def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path:
     with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
         proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "1", "--methods",
                                  "llm-land", "--out", str(tmp_path / "out")], cwd=REPO, stdout=subprocess.DEVNULL,
-                                stderr=err)
+                                stderr=err, preexec_fn=_interruptible)
     parent = psutil.Process(proc.pid)
     deadline = time.monotonic() + STARTUP_WAIT_S
     services: list[psutil.Process] = []
