@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import signal
@@ -31,9 +32,11 @@ def _interruptible() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, timeout_s: float = 30.0) -> int:
+def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, services: list[psutil.Process],
+               timeout_s: float = 30.0) -> int:
     """``proc``'s exit code; if it has not exited within ``timeout_s``, fail with every thread's
-    stack (the CLI dumps them on SIGUSR1) and the tail of its stderr: what it was waiting on."""
+    stack (the CLI dumps them on SIGUSR1) and the tail of its stderr: what it was waiting on. The
+    CLI and its ``services`` are killed then, so a failure leaves nothing running."""
     try:
         return proc.wait(timeout=timeout_s)
     except subprocess.TimeoutExpired:
@@ -41,6 +44,9 @@ def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, timeout_s: floa
         time.sleep(2.0)
         proc.kill()
         proc.wait()
+        for service in services:
+            with contextlib.suppress(psutil.NoSuchProcess):
+                service.kill()
         pytest.fail(f"the CLI did not exit within {timeout_s:.0f} s; its stderr ends:\n"
                     + stderr_path.read_text(errors="replace")[-8000:])
 
@@ -117,7 +123,7 @@ def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> Non
         time.sleep(0.2)
     assert len(services) >= 4, "the stacks did not start"
     proc.send_signal(signal.SIGTERM)
-    assert _exit_code(proc, stderr_path) != 0
+    assert _exit_code(proc, stderr_path, services) != 0
     gone, alive = psutil.wait_procs(services, timeout=10)
     assert not alive, [p.pid for p in alive]
     if (tmp_path / "out" / "trials.csv").exists():  # a trial that ended before the signal is kept, the rest is not
@@ -144,7 +150,7 @@ def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path:
     proc.send_signal(signal.SIGINT)
     time.sleep(0.3)
     proc.send_signal(signal.SIGINT)
-    assert _exit_code(proc, stderr_path) != 0
+    assert _exit_code(proc, stderr_path, services) != 0
     gone, alive = psutil.wait_procs(services, timeout=10)
     assert not alive, [(p.pid, p.name()) for p in alive]
 
