@@ -123,11 +123,10 @@ class TrackedObstacle:
     #: the last side view cut it at the top of the image and saw more of it than its known top
     #: (``top_seen_m``): its top is unknown (at least ``hi_m[2]``)
     touches_top: bool = False
-    #: the highest top (z, m) a side view saw whole, with sky or background above it; None until
-    #: one does (:meth:`ObstacleTracker._fold_top`)
-    top_seen_m: float | None = None
-    #: ``(lo (2,), hi (2,))`` m: the plan-view bounds of the views that saw it whole, merged
-    whole_xy_m: tuple[FloatArray, FloatArray] | None = None
+    #: ``(lo (3,), hi (3,))`` m: the bounds of the side views that saw it whole (sky or background
+    #: above it), merged; ``hi[2]`` is its known top. None until one does
+    #: (:meth:`ObstacleTracker._fold_top`)
+    whole_box_m: tuple[FloatArray, FloatArray] | None = None
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
@@ -149,6 +148,11 @@ class TrackedObstacle:
         """Half sizes (2,) m of the seen footprint along x and y."""
         result: FloatArray = 0.5 * (self.hi_m[:2] - self.lo_m[:2])
         return result
+
+    @property
+    def top_seen_m(self) -> float | None:
+        """The highest top (z, m) a side view saw whole; None until one does."""
+        return None if self.whole_box_m is None else float(self.whole_box_m[1][2])
 
     @property
     def height_m(self) -> float:
@@ -316,32 +320,28 @@ class ObstacleTracker:
         """Fold a side view's top into ``track`` (after its bounds took the blob's).
 
         A view that sees the thing whole (not cut at the image's top edge) sees its top and the
-        space straight above it: ``top_seen_m`` keeps the highest such top and ``whole_xy_m`` the
-        merged plan-view bounds of those views. A later, closer view that cuts a thing that has
-        not moved at the top, but sees no higher than that top plus :data:`TOP_SEEN_TOLERANCE_M`,
-        shows nothing new above it: the top stays known, and the bounds keep that top and the
-        whole views' footprint (a cut trunk's blob matched to its crown's track must not shrink
-        the crown to the trunk). Before, the cut view made the top unknown and the keep-out went up to the
-        altitude ceiling: a parked car seen whole at 1.5 m became a 10.5 m wall when the drone came
-        near (urban seeds 12, 31). A cut view that sees higher than the known top (a trunk whose
-        crown was its own blob), or of a thing that has moved, leaves the top unknown, as before.
+        space straight above it: ``whole_box_m`` merges the bounds of those views, its top the
+        highest seen. A later, closer view that cuts a thing that has not moved at the top, but
+        sees no higher than that top plus :data:`TOP_SEEN_TOLERANCE_M`, shows nothing new above
+        it: the top stays known, and the track's bounds keep the whole views' top and footprint
+        (a cut trunk's blob matched to its crown's track must not shrink the crown to the trunk).
+        Before, the cut view made the top unknown and the keep-out went up to the altitude
+        ceiling: a parked car seen whole at 1.5 m became a 10.5 m wall when the drone came near
+        (urban seeds 12, 31). A cut view that sees higher than the known top (a trunk whose crown
+        was its own blob), or of a thing that has moved, leaves the top unknown, as before.
         Whatever stood above the thing was in the whole view: its own blob and track (planner
         README, "Known tops").
         """
-        top = float(blob.hi_m[2])
+        whole = track.whole_box_m
         if not blob.touches_top:
-            track.top_seen_m = top if track.top_seen_m is None else max(track.top_seen_m, top)
-            lo, hi = blob.lo_m[:2], blob.hi_m[:2]
-            if track.whole_xy_m is not None:  # the views' union: a crown seen once stays in it
-                lo, hi = np.minimum(lo, track.whole_xy_m[0]), np.maximum(hi, track.whole_xy_m[1])
-            track.whole_xy_m = (np.array(lo, dtype=np.float64), np.array(hi, dtype=np.float64))
+            lo, hi = np.asarray(blob.lo_m, dtype=np.float64), np.asarray(blob.hi_m, dtype=np.float64)
+            track.whole_box_m = (lo.copy(), hi.copy()) if whole is None else (np.minimum(lo, whole[0]),
+                                                                             np.maximum(hi, whole[1]))
             track.touches_top = False
-        elif (track.top_seen_m is not None and track.whole_xy_m is not None and not track.has_moved
-              and top <= track.top_seen_m + TOP_SEEN_TOLERANCE_M):
+        elif whole is not None and not track.has_moved and blob.hi_m[2] <= whole[1][2] + TOP_SEEN_TOLERANCE_M:
             track.touches_top = False
-            track.hi_m[2] = max(track.hi_m[2], track.top_seen_m)
-            track.lo_m[:2] = np.minimum(track.lo_m[:2], track.whole_xy_m[0])
-            track.hi_m[:2] = np.maximum(track.hi_m[:2], track.whole_xy_m[1])
+            track.lo_m[:2] = np.minimum(track.lo_m[:2], whole[0][:2])
+            track.hi_m = np.maximum(track.hi_m, whole[1])
         else:
             track.touches_top = True
 
