@@ -51,6 +51,24 @@ def _exit_code(proc: subprocess.Popen[bytes], stderr_path: Path, services: list[
                     + stderr_path.read_text(errors="replace")[-8000:])
 
 
+def _start_experiment(tmp_path: Path, args: list[str], n_services: int
+                      ) -> tuple[subprocess.Popen[bytes], list[psutil.Process], Path]:
+    """``llmland experiment exp1 ARGS --out TMP/out`` with its stderr in ``TMP/cli.stderr``; waits
+    (at most ``STARTUP_WAIT_S``) until it has ``n_services`` child processes, and returns the CLI,
+    those it has by then and the stderr's path."""
+    stderr_path = tmp_path / "cli.stderr"
+    with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
+        proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", *args, "--out", str(tmp_path / "out")],
+                                cwd=REPO, stdout=subprocess.DEVNULL, stderr=err, preexec_fn=_interruptible)
+    parent = psutil.Process(proc.pid)
+    deadline = time.monotonic() + STARTUP_WAIT_S
+    services: list[psutil.Process] = []
+    while time.monotonic() < deadline and len(services) < n_services:
+        services = parent.children(recursive=True)
+        time.sleep(0.2)
+    return proc, services, stderr_path
+
+
 def _rows_without_wall_columns(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as fh:
         return [{k: v for k, v in row.items() if k not in WALL_COLUMNS} for row in csv.DictReader(fh)]
@@ -110,17 +128,8 @@ def test_the_code_version_names_the_commit_and_a_dirty_tree(tmp_path: Path) -> N
 
 def test_interrupted_experiment_leaves_no_service_running(tmp_path: Path) -> None:
     """SIGTERM (or Ctrl-C) mid-trial stops every service of every job; --resume flies what is left."""
-    stderr_path = tmp_path / "cli.stderr"
-    with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
-        proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "2", "--methods",
-                                 "baseline", "--jobs", "2", "--out", str(tmp_path / "out")], cwd=REPO,
-                                stdout=subprocess.DEVNULL, stderr=err)
-    parent = psutil.Process(proc.pid)
-    deadline = time.monotonic() + STARTUP_WAIT_S
-    services: list[psutil.Process] = []
-    while time.monotonic() < deadline and len(services) < 4:  # two jobs × (sim, planner)
-        services = parent.children(recursive=True)
-        time.sleep(0.2)
+    args = ["--trials", "2", "--methods", "baseline", "--jobs", "2"]
+    proc, services, stderr_path = _start_experiment(tmp_path, args, 4)  # two jobs × (sim, planner)
     assert len(services) >= 4, "the stacks did not start"
     proc.send_signal(signal.SIGTERM)
     assert _exit_code(proc, stderr_path, services) != 0
@@ -135,17 +144,8 @@ def test_ctrl_c_twice_while_the_stack_starts_leaves_no_service_running(tmp_path:
     Ctrl-C again, stop every service at once. Before, the first interrupted ``Thread.join`` marked
     the running job as stopped (CPython 3.11), the CLI exited at once and all five processes
     (four services and the LLM worker) were orphaned."""
-    stderr_path = tmp_path / "cli.stderr"
-    with stderr_path.open("wb") as err:  # Popen holds its own copy of the descriptor
-        proc = subprocess.Popen([str(BIN / "llmland"), "experiment", "exp1", "--trials", "1", "--methods",
-                                 "llm-land", "--out", str(tmp_path / "out")], cwd=REPO, stdout=subprocess.DEVNULL,
-                                stderr=err, preexec_fn=_interruptible)
-    parent = psutil.Process(proc.pid)
-    deadline = time.monotonic() + STARTUP_WAIT_S
-    services: list[psutil.Process] = []
-    while time.monotonic() < deadline and len(services) < 5:  # sim, planner, vle, reasoner + LLM worker
-        services = parent.children(recursive=True)
-        time.sleep(0.2)
+    # sim, planner, vle, reasoner + LLM worker
+    proc, services, stderr_path = _start_experiment(tmp_path, ["--trials", "1", "--methods", "llm-land"], 5)
     assert len(services) >= 5, "the stack did not start"
     proc.send_signal(signal.SIGINT)
     time.sleep(0.3)
