@@ -126,6 +126,11 @@ def cmd_experiment(args: argparse.Namespace) -> int:
         ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
         resume=args.resume, log_level=args.service_log_level, machine=machine()["machine"])
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+    errored, missing = summary["errored_trials"], summary["missing_trials"]
+    if errored or missing:
+        log.error("incomplete: %d trial(s) errored (%s), %d never ran (%s); `--resume` flies them again",
+                  len(errored), ", ".join(errored) or "none", len(missing), ", ".join(missing) or "none")
+        return 1
     return 0
 
 

@@ -18,7 +18,7 @@ from typing import Any
 from .plan import EXPERIMENTS, build_trials
 from .plots import write_plots
 from .report import summarize, write_report
-from .runner import ExperimentRunner, read_rows
+from .runner import ExperimentRunner, read_rows, row_key
 
 log = logging.getLogger(__name__)
 
@@ -50,7 +50,11 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
                    latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
                    jobs: int = 1, timeout_s: float = 90.0, rrd: bool = False, resume: bool = False,
                    log_level: str = "WARNING", machine: str = "") -> dict[str, Any]:
-    """Run (or finish, with ``resume``) an experiment into ``out``; returns ``summary.json``."""
+    """Run (or finish, with ``resume``) an experiment into ``out``; returns ``summary.json``.
+
+    Trials whose stack failed twice (``error`` rows) and trials with no row at all are left out
+    of the figures and named in ``summary["errored_trials"]`` / ``summary["missing_trials"]``;
+    ``--resume`` flies both again."""
     todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
                         latency_model=latency_model, specs=specs, ggufs=ggufs)
     code = code_version()
@@ -60,10 +64,14 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
         log.info("resuming: %d of %d trials already in %s", runner.skipped, len(todo), runner.csv_path)
     wall = runner.run()
     keys = {t.key for t in todo}
-    rows = [r for r in read_rows(runner.csv_path)
-            if (r["world"], r["method"], r["variant"], int(r["seed"])) in keys]
+    recorded = [r for r in read_rows(runner.csv_path) if row_key(r) in keys]
+    rows = [r for r in recorded if r["outcome"] != "error"]
     default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")
     summary = summarize(experiment, rows, default_lm)
+    seen = {row_key(r) for r in recorded}
+    names = {t.key: t.name for t in todo}
+    summary["errored_trials"] = {names[row_key(r)]: r["episode_id"] for r in recorded if r["outcome"] == "error"}
+    summary["missing_trials"] = [t.name for t in todo if t.key not in seen]
     meta_path = out / "meta.json"
     previous = json.loads(meta_path.read_text()) if resume and meta_path.exists() else {}
     meta = {

@@ -108,6 +108,12 @@ def results_markdown(summary: dict[str, Any], meta: dict[str, Any]) -> str:
     else:
         for world in dict.fromkeys(r["world"] for r in summary["rows"]):
             lines += [f"## {world}", ""] + _method_table(summary, world) + [""]
+    errored, missing = summary.get("errored_trials", {}), summary.get("missing_trials", [])
+    if errored or missing:
+        lines += ["", f"**Incomplete: {len(errored)} trial(s) failed on their stack twice and {len(missing)} "
+                  "never ran; they are left out of the figures above (`--resume` flies them again).**", ""]
+        lines += [f"- {name}: error, {reason}" for name, reason in errored.items()]
+        lines += [f"- {name}: no row" for name in missing]
     lines += ["", "Success (DESIGN §8): touchdown within 0.5 m of the target, no collision, never within 1 m "
               "of a person. *paper*: Cai, Wu, Zhou, LLM-Land, Tables I–III (ROS/Gazebo, 50 trials each)."]
     return "\n".join(lines) + "\n"
