@@ -76,6 +76,19 @@ def quat_to_matrix(quat_xyzw: VecLike) -> FloatArray:
     )
 
 
+#: :data:`SKY_RGB` with an opaque alpha, as one native-endian 32-bit RGBA word
+_SKY_RGBA_WORD = np.array([*SKY_RGB, 255], dtype=np.uint8).view(np.uint32)[0]
+
+
+def _with_sky(rgba: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """RGB (H, W, 3) uint8 of ``rgba`` (H, W, 4) with ``background`` (H, W) pixels set to
+    :data:`SKY_RGB`; one select over 32-bit pixels (a quarter of the cost of a masked write to
+    the (H, W, 3) array, which was half the camera's post-processing)."""
+    words = np.ascontiguousarray(rgba).view(np.uint32)[..., 0]
+    sky = np.where(background, _SKY_RGBA_WORD, words)
+    return sky.view(np.uint8).reshape(*background.shape, 4)[..., :3].copy()
+
+
 @dataclass
 class CameraRender:
     """One rendered frame.
@@ -219,13 +232,12 @@ class RgbdCamera:
             **extra,
         )
         dt = time.perf_counter() - t0
-        rgb = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[..., :3].copy()
         d = np.asarray(depth, dtype=np.float64).reshape(h, w)
         background = d >= 1.0
         with np.errstate(divide="ignore"):
             z = self.far * self.near / (self.far - (self.far - self.near) * d)
         z[background] = np.inf
-        rgb[background] = SKY_RGB
+        rgb = _with_sky(np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4), background)
         if with_seg:
             seg_img = np.asarray(seg, dtype=np.int32).reshape(h, w)
         else:

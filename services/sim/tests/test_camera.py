@@ -170,3 +170,17 @@ def test_egl_without_shadows_skips_the_shadow_pass_and_keeps_depth(client: int) 
         diff = np.abs(a.rgb.astype(int) - b.rgb.astype(int)).max(axis=-1)
         assert np.median(diff[ground]) <= 3, pos  # the ground's texels, wherever the camera is
         assert diff.mean() < 12.0, pos  # the same scene, less the shadows
+
+
+def test_sky_fill_matches_a_masked_write() -> None:
+    """The 32-bit select that paints the background equals painting it pixel by pixel."""
+    from llmland_sim.camera import _with_sky
+
+    rng = np.random.default_rng(3)
+    rgba = rng.integers(0, 256, (48, 64, 4), dtype=np.uint8)
+    background = rng.random((48, 64)) < 0.6
+    ref = rgba[..., :3].copy()
+    ref[background] = SKY_RGB
+    out = _with_sky(rgba, background)
+    assert out.shape == (48, 64, 3) and out.dtype == np.uint8 and out.flags.c_contiguous
+    np.testing.assert_array_equal(out, ref)

@@ -64,8 +64,23 @@ class BatchCaptioner:
     def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
         raise NotImplementedError
 
+    def _generate_frame_and_crops(self, frame_rgb: np.ndarray, crops: Sequence[np.ndarray]) -> list[str]:
+        """Texts for a frame then its crops (a backend that can decode them together overrides this)."""
+        return self._generate([frame_rgb], "frame") + (self._generate(crops, "object") if crops else [])
+
     def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
         return self.caption_batch([image_rgb], kind=kind)[0]
+
+    def caption_frame_and_crops(self, frame_rgb: np.ndarray,
+                                crops: Sequence[np.ndarray]) -> tuple[Caption, list[Caption]]:
+        """The frame's caption (``kind="frame"``) and one per crop (``"object"``), in one model pass
+        where the backend allows; ``latency_ms`` of each is the pass's time over the images."""
+        t0 = time.perf_counter()
+        with self._lock:
+            texts = self._generate_frame_and_crops(frame_rgb, crops)
+        per_ms = (time.perf_counter() - t0) * 1e3 / (1 + len(crops))
+        caps = [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
+        return caps[0], caps[1:]
 
     def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
         if not images:

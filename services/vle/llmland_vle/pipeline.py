@@ -17,7 +17,7 @@ from llmland_schemas import Caption, MessageError, SceneDescription, SceneObject
 from llmland_schemas.depth import Blob, blobs_from_frame
 from llmland_schemas.frames import CameraFrame, decode_frame
 
-from .captioner import Captioner, SceneCaptioner
+from .captioner import BatchCaptioner, Captioner, SceneCaptioner
 from .crops import crop_square
 from .settings import VleSettings
 
@@ -116,9 +116,10 @@ class FrameProcessor:
         cap = self.captioner
         if isinstance(cap, SceneCaptioner):
             return cap.caption_scene(frame, blobs)
-        scene = cap.caption(frame.rgb, kind="frame")
         crops = [crop_square(frame.rgb, b.bbox_px, self.settings.crop_size) for b in blobs]
-        return scene, cap.caption_batch(crops, kind="object")
+        if isinstance(cap, BatchCaptioner):
+            return cap.caption_frame_and_crops(frame.rgb, crops)
+        return cap.caption(frame.rgb, kind="frame"), cap.caption_batch(crops, kind="object")
 
     def stats(self) -> dict[str, object]:
         with self._lock:

@@ -72,3 +72,46 @@ def test_heldout_class_accuracy_and_person_recall(heldout) -> None:  # type: ign
         assert m["n"] >= 100 and m["n_person"] >= 30, m
         assert m["class_acc"] >= MIN_CLASS_ACC, (name, m)
         assert m["person_recall"] >= MIN_PERSON_RECALL, (name, m)
+
+
+def _greedy_with_gru_module(model, images, bos, eos, bias):  # type: ignore[no-untyped-def]
+    """The reference: greedy decoding stepping ``nn.GRU`` on [word embedding, image feature]."""
+    with torch.inference_mode():
+        feat = model.encoder(images)
+        h = torch.tanh(model.init_h(feat))[None]
+        tok = torch.full((feat.shape[0], 1), bos, dtype=torch.long)
+        done = torch.zeros(feat.shape[0], dtype=torch.bool)
+        steps = []
+        for _ in range(model.cfg.max_len):
+            emb = model.embed(tok)
+            out, h = model.gru(torch.cat([emb, feat[:, None, :].expand(-1, 1, -1)], dim=2), h)
+            nxt = (model.out(out[:, -1]) + bias).argmax(dim=1)
+            nxt = torch.where(done, torch.full_like(nxt, eos), nxt)
+            steps.append(nxt)
+            done |= nxt == eos
+            if bool(done.all()):
+                break
+            tok = nxt[:, None]
+        return torch.stack(steps, dim=1)
+
+
+def test_the_written_out_gru_step_decodes_the_same_words(heldout) -> None:  # type: ignore[no-untyped-def]
+    """``SimCapNet.decode`` (the GRU step written out) against stepping ``nn.GRU``: the same
+    word ids on held-out crops and frames, and a frame decoded beside crops is unchanged."""
+    from llmland_vle.simcap.backend import resize
+    from llmland_vle.simcap.model import images_to_tensor
+
+    cap = SimcapCaptioner()
+    model, vocab, bias = cap.model, cap.vocab, cap.logit_bias
+    crops = images_to_tensor([resize(c, cap.crop_size) for c in heldout.crops[:64]])
+    ours = model.greedy(crops, vocab.bos("object"), vocab.eos, logit_bias=bias)
+    ref = _greedy_with_gru_module(model, crops, vocab.bos("object"), vocab.eos, bias)
+    assert ours.shape == ref.shape and torch.equal(ours, ref)
+
+    assert len(heldout.frames) >= 6
+    for k, frame in enumerate(heldout.frames[:6]):
+        raw = heldout.crops[3 * k : 3 * k + 3]
+        joint_scene, joint_objects = cap.caption_frame_and_crops(frame, raw)
+        assert joint_scene.text == cap.caption(frame, kind="frame").text
+        assert [c.text for c in joint_objects] == [c.text for c in cap.caption_batch(raw, kind="object")]
+    assert cap.caption_frame_and_crops(heldout.frames[0], [])[1] == []

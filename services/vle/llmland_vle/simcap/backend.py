@@ -76,7 +76,7 @@ class SimcapCaptioner(BatchCaptioner):
 
     backend = "simcap"
 
-    def __init__(self, weights_dir: Path | None = None, *, threads: int = 2, crop_size: int | None = None) -> None:
+    def __init__(self, weights_dir: Path | None = None, *, threads: int = 1, crop_size: int | None = None) -> None:
         super().__init__()
         torch.set_num_threads(threads)
         self.model, self.vocab, version = load_model(weights_dir)
@@ -95,4 +95,16 @@ class SimcapCaptioner(BatchCaptioner):
         size = self.frame_size if kind == "frame" else self.crop_size
         batch = images_to_tensor([resize(check_rgb(im), size) for im in images])
         ids = self.model.greedy(batch, self.vocab.bos(kind), self.vocab.eos, logit_bias=self.logit_bias)
+        return [self.vocab.decode(row.tolist()) for row in ids]
+
+    def _generate_frame_and_crops(self, frame_rgb: np.ndarray, crops: Sequence[np.ndarray]) -> list[str]:
+        """One decode for the frame and its crops: each size through the encoder, then every
+        caption word by word together (the frame's row starts with ``<frame>``)."""
+        with torch.inference_mode():
+            feats = [self.model.encoder(images_to_tensor([resize(check_rgb(frame_rgb), self.frame_size)]))]
+            if crops:
+                feats.append(self.model.encoder(images_to_tensor([resize(check_rgb(c), self.crop_size)
+                                                                  for c in crops])))
+            bos = torch.tensor([self.vocab.bos("frame")] + [self.vocab.bos("object")] * len(crops))
+            ids = self.model.decode(torch.cat(feats), bos, self.vocab.eos, logit_bias=self.logit_bias)
         return [self.vocab.decode(row.tolist()) for row in ids]

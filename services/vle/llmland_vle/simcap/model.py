@@ -102,25 +102,45 @@ class SimCapNet(nn.Module):
         ``logit_bias`` (V,) is added to the word logits at every step (e.g. to favour
         "person" when it is a close call: missing a person is the costly error).
         """
-        n = images.shape[0]
-        max_len = max_len or self.cfg.max_len
         feat = self.encoder(images)
-        h = torch.tanh(self.init_h(feat))[None]
-        tok = torch.full((n, 1), bos, dtype=torch.long)
+        return self.decode(feat, torch.full((feat.shape[0],), bos, dtype=torch.long), eos, max_len, logit_bias)
+
+    @torch.inference_mode()
+    def decode(
+        self, feat: Tensor, bos: Tensor, eos: int, max_len: int | None = None, logit_bias: Tensor | None = None
+    ) -> Tensor:
+        """Greedy decoding from image features: ``feat`` (B, feature_dim), ``bos`` (B,) each row's
+        first token (rows of different caption styles decode together) -> word ids (B, <= max_len).
+
+        The GRU step is written out (PyTorch's ``nn.GRU`` equations, its weights): the input
+        projection of a step is a row of a per-word table plus the image feature's projection,
+        both computed once per call, so a step costs two small matrix products instead of a
+        module call on the concatenated input. Same words as stepping ``self.gru``.
+        """
+        n = feat.shape[0]
+        max_len = max_len or self.cfg.max_len
+        e = self.cfg.embed_dim
+        w_ih, w_hh, b_ih, b_hh = self.gru.all_weights[0]  # layer 0: W_ih (3H, E+F), W_hh (3H, H), b_ih, b_hh
+        word_in = torch.addmm(b_ih, self.embed.weight, w_ih[:, :e].T)  # (V, 3H): embed → gates
+        feat_in = feat @ w_ih[:, e:].T  # (B, 3H): the image part of every step's input
+        out_b = self.out.bias if logit_bias is None else self.out.bias + logit_bias
+        h = torch.tanh(self.init_h(feat))
+        tok = bos
         done = torch.zeros(n, dtype=torch.bool)
         steps = []
         for _ in range(max_len):
-            out, h = self.gru(self._step_inputs(tok, feat), h)
-            logits = self.out(out[:, -1])
-            if logit_bias is not None:
-                logits = logits + logit_bias
-            nxt = logits.argmax(dim=1)
+            i_r, i_z, i_n = (word_in[tok] + feat_in).chunk(3, dim=1)
+            h_r, h_z, h_n = torch.addmm(b_hh, h, w_hh.T).chunk(3, dim=1)
+            r, z = torch.sigmoid(i_r + h_r), torch.sigmoid(i_z + h_z)
+            cand = torch.tanh(i_n + r * h_n)
+            h = cand + z * (h - cand)  # (1 - z) * n + z * h
+            nxt = torch.addmm(out_b, h, self.out.weight.T).argmax(dim=1)
             nxt = torch.where(done, torch.full_like(nxt, eos), nxt)
             steps.append(nxt)
             done |= nxt == eos
             if bool(done.all()):
                 break
-            tok = nxt[:, None]
+            tok = nxt
         return torch.stack(steps, dim=1)
 
 
