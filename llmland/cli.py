@@ -120,11 +120,14 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     for w in worlds or []:
         if w not in WORLDS:
             raise SystemExit(f"unknown world {w!r}; choose from {', '.join(WORLDS)}")
-    summary = run_experiment(
-        args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
-        worlds=worlds, latency_model=args.latency_model, specs=args.specs,
-        ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
-        resume=args.resume, log_level=args.service_log_level, machine=machine()["machine"])
+    try:
+        summary = run_experiment(
+            args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
+            worlds=worlds, latency_model=args.latency_model, specs=args.specs,
+            ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
+            resume=args.resume, log_level=args.service_log_level, machine=machine()["machine"])
+    except ValueError as exc:  # a --resume that would mix two ways of flying
+        raise SystemExit(f"llmland experiment: {exc}") from exc
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")
     errored, missing = summary["errored_trials"], summary["missing_trials"]
     if errored or missing:

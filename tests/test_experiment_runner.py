@@ -25,16 +25,28 @@ class _Tracer:
         pass
 
 
+#: stand-in stacks opened so far, and how many more closes raise (a service that will not die)
+_OPENED: list[int] = []
+_FAILING_CLOSES: list[int] = [0]
+
+
 @contextmanager
 def _fake_stack(*_: object, **__: object) -> Iterator[Any]:
+    _OPENED.append(1)
     yield SimpleNamespace(bus=None, runner=SimpleNamespace(drone_id="d0", abort=lambda: None))
+    if _FAILING_CLOSES[0] > 0:
+        _FAILING_CLOSES[0] -= 1
+        raise OSError("a service did not stop")
 
 
 def _landed(trial: Trial) -> dict[str, Any]:
+    """A landing's row; like the real ones, no latency model where nothing is perceived."""
+    perceives = trial.method not in ("baseline", "conservative")
     row: dict[str, Any] = {c: "" for c in COLUMNS}
     row.update({"world": trial.world, "method": trial.method, "variant": trial.variant, "seed": trial.seed,
                 "outcome": "landed", "success": 1, "time_to_land_s": "20.0", "closest_person_m": "5.0",
-                "close_calls": "0", "spec_latency_ms_mean": "50.0"})
+                "close_calls": "0", "spec_latency_ms_mean": "50.0",
+                "latency_model": (trial.latency_model or "measured") if perceives else ""})
     return row
 
 
@@ -50,6 +62,8 @@ def stand_ins(monkeypatch: pytest.MonkeyPatch) -> dict[int, int]:
             raise KeyError("a bug, not a stack fault")  # not one of the expected faults
         return _landed(trial)
 
+    _OPENED.clear()
+    _FAILING_CLOSES[0] = 0
     monkeypatch.setattr(runner_mod, "open_stack", _fake_stack)
     monkeypatch.setattr(runner_mod, "TraceRecorder", _Tracer)
     monkeypatch.setattr(ExperimentRunner, "_fly", fly)
@@ -66,6 +80,16 @@ def test_an_unexpected_fault_is_retried_then_recorded_and_the_job_flies_on(
     assert rows == {1: "landed", 2: "landed", 3: "error", 4: "landed", 5: "landed"}
 
 
+def test_a_retry_flies_on_a_fresh_stack_and_a_stack_that_will_not_stop_loses_nothing(
+        tmp_path: Path, stand_ins: dict[int, int]) -> None:
+    stand_ins.update({2: 1, 3: 2})
+    _FAILING_CLOSES[0] = 3  # every failed trial's stack, and the last one, raise when closed
+    trials = [Trial("open_field", "llm-land", s) for s in range(1, 6)]
+    ExperimentRunner(trials, tmp_path, jobs=1).run()
+    assert sorted(int(r["seed"]) for r in read_rows(tmp_path / "trials.csv")) == [1, 2, 3, 4, 5]
+    assert len(_OPENED) == 4  # the first, then a fresh one after each of the three failures
+
+
 def test_errored_trials_are_named_left_out_of_the_figures_and_flown_again_on_resume(
         tmp_path: Path, stand_ins: dict[int, int]) -> None:
     stand_ins[2] = 2
@@ -76,9 +100,14 @@ def test_errored_trials_are_named_left_out_of_the_figures_and_flown_again_on_res
     assert row["n"] == 2 and row["success_rate"] == 1.0  # the error is not counted as a failed landing
     assert "Incomplete: 1 trial(s)" in (tmp_path / "results.md").read_text()
 
+    kept = [r for r in read_rows(tmp_path / "trials.csv") if r["outcome"] != "error"]
     summary = experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], resume=True)
     assert summary["errored_trials"] == {} and summary["rows"][0]["n"] == 3
-    assert sorted(int(r["seed"]) for r in read_rows(tmp_path / "trials.csv")) == [1, 2, 3]  # no error row left
+    rows = read_rows(tmp_path / "trials.csv")
+    assert sorted(int(r["seed"]) for r in rows) == [1, 2, 3]  # no error row left
+    assert rows[: len(kept)] == kept  # the finished rows untouched, in their order
+    assert (tmp_path / "trials.csv").read_text().splitlines()[0] == ",".join(COLUMNS)
+    assert not (tmp_path / "trials.csv.tmp").exists()
 
 
 def test_a_trial_without_a_row_is_named_missing(tmp_path: Path, stand_ins: dict[int, int],
@@ -112,3 +141,16 @@ def test_the_command_fails_when_a_trial_errored(tmp_path: Path, stand_ins: dict[
         cli.main(["experiment", "exp1", "--trials", "2", "--methods", "llm-land", "--out", str(tmp_path),
                   "--resume"])
     assert exit_.value.code == 0
+
+
+def test_resume_refuses_rows_flown_with_another_latency_model(tmp_path: Path, stand_ins: dict[int, int]) -> None:
+    experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"], latency_model="fixed:200")
+    with pytest.raises(ValueError, match="fixed:200"):
+        experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], resume=True)
+    summary = experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"],
+                                        latency_model="fixed:200", resume=True)
+    assert summary["rows"][0]["n"] == 3
+    # the geometric methods perceive nothing: no latency model in their rows, any plan resumes them
+    experiment.run_experiment("exp1", tmp_path / "b", trials=2, methods=["baseline"], latency_model="fixed:200")
+    summary = experiment.run_experiment("exp1", tmp_path / "b", trials=2, methods=["baseline"], resume=True)
+    assert summary["rows"][0]["n"] == 2

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .plan import EXPERIMENTS, build_trials
+from .plan import EXPERIMENTS, Trial, build_trials
 from .plots import write_plots
 from .report import summarize, write_report
 from .runner import ExperimentRunner, read_rows, row_key
@@ -45,6 +45,20 @@ def code_version(root: Path = REPO_ROOT) -> str:
     return f"{head}-dirty" if dirty else head or "unknown"
 
 
+def _check_resumable(csv_path: Path, todo: list[Trial], default_lm: str) -> None:
+    """``--resume`` only where the rows already there were flown with this plan's latency model:
+    a trial's key names world, method, variant and seed, not how it was flown. ValueError names
+    the first trial that differs."""
+    expected = {t.key: t.latency_model or default_lm for t in todo}
+    for row in read_rows(csv_path):
+        want = expected.get(row_key(row))
+        flown = row["latency_model"]  # "" where nothing was perceived (the geometric methods)
+        if want is not None and row["outcome"] != "error" and flown and flown != want:
+            raise ValueError(f"{csv_path} holds {row['world']} {row['method']} seed {row['seed']} flown with "
+                             f"latency model {row['latency_model']!r}, this run asks for {want!r}: resume with "
+                             "the same options or use another --out")
+
+
 def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
                    methods: list[str] | None = None, worlds: list[str] | None = None,
                    latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
@@ -57,6 +71,9 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     ``--resume`` flies both again."""
     todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
                         latency_model=latency_model, specs=specs, ggufs=ggufs)
+    default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")
+    if resume:
+        _check_resumable(out / "trials.csv", todo, default_lm)
     code = code_version()
     runner = ExperimentRunner(todo, out, jobs=jobs, timeout_s=timeout_s, rrd=rrd, resume=resume,
                               log_level=log_level, label=experiment)
@@ -66,7 +83,6 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     keys = {t.key for t in todo}
     recorded = [r for r in read_rows(runner.csv_path) if row_key(r) in keys]
     rows = [r for r in recorded if r["outcome"] != "error"]
-    default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")
     summary = summarize(experiment, rows, default_lm)
     seen = {row_key(r) for r in recorded}
     names = {t.key: t.name for t in todo}

@@ -4,14 +4,16 @@ Each job owns one stack (its own processes and loopback bus port) and keeps it w
 trials need the same services; a job that finds no trial for its stack starts the next one.
 Rows are appended to ``trials.csv`` as soon as a trial ends, so ``--resume`` skips what is
 done and a long experiment survives an interruption. A trial whose stack fails is retried
-once on a fresh stack, then recorded with outcome ``error``: every trial taken ends as a row,
-unless an interrupt stops it (then ``--resume`` flies it).
+once on a fresh stack, then recorded with outcome ``error``: every trial taken ends as a row
+unless an interrupt stops it (``--resume`` flies it) or its row cannot be written (logged; the
+summary names it as missing).
 """
 
 from __future__ import annotations
 
 import csv
 import logging
+import os
 import signal
 import threading
 import time
@@ -91,7 +93,7 @@ def append_row(path: Path, row: dict[str, Any]) -> None:
 def error_row(trial: Trial, reason: str) -> dict[str, Any]:
     row: dict[str, Any] = {c: "" for c in COLUMNS}
     row.update({"world": trial.world, "method": trial.method, "variant": trial.variant, "seed": trial.seed,
-                "outcome": "error", "success": 0, "episode_id": reason[:200]})
+                "outcome": "error", "success": 0, "episode_id": " ".join(reason.split())[:200]})
     return row
 
 
@@ -104,14 +106,27 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 
 def drop_error_rows(path: Path) -> list[dict[str, str]]:
     """Remove the ``error`` rows from the CSV at ``path`` (a stack fault is not a result: ``--resume``
-    flies those trials again) and return the rows that stay."""
+    flies those trials again) and return the rows that stay. The file is replaced in one step (a
+    crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`."""
     rows = read_rows(path)
     kept = [r for r in rows if r["outcome"] != "error"]
     if len(kept) < len(rows):
-        path.unlink()
-        for r in kept:
-            append_row(path, r)
+        tmp = path.with_name(path.name + ".tmp")
+        with tmp.open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
+            w.writeheader()
+            w.writerows(kept)
+        os.replace(tmp, path)
     return kept
+
+
+def _close_quietly(resources: ExitStack) -> None:
+    """Stop a failed trial's stack; a failure to (a service that will not die) is logged, and the
+    next trial starts a fresh stack."""
+    try:
+        resources.close()
+    except Exception:
+        log.exception("stopping a failed stack")
 
 
 def row_key(row: dict[str, Any]) -> tuple[str, str, str, int]:
@@ -172,6 +187,14 @@ class ExperimentRunner:
                 self._bar.set_postfix_str(" · ".join(f"{k} {c['ok']}/{c['n']}" for k, c in self._tally.items()))
                 self._bar.update(1)
 
+    def _record_safely(self, row: dict[str, Any]) -> None:
+        """:meth:`_record`, and a failure to (a full disk) logged: the job flies on, and the
+        summary names the trial as missing."""
+        try:
+            self._record(row)
+        except Exception:
+            log.exception("recording the row of %s failed", row_key(row))
+
     # ------------------------------------------------------------------ flying
     def _fly(self, running: RunningStack, tracer: TraceRecorder, trial: Trial) -> dict[str, Any]:
         rrd = str((self.out / "rrd" / f"{trial.name}.rrd").resolve()) if self.rrd else None
@@ -191,6 +214,7 @@ class ExperimentRunner:
         tracer: TraceRecorder | None = None
         try:
             while not self._stop.is_set() and (trial := self._take(current)) is not None:
+                row: dict[str, Any] | None = None
                 for attempt in (1, 2):
                     try:
                         if running is None or trial.stack() != current:
@@ -204,17 +228,19 @@ class ExperimentRunner:
                         assert running is not None and tracer is not None
                         if self._stop.is_set():
                             break
-                        self._record(self._fly(running, tracer, trial))
+                        row = self._fly(running, tracer, trial)
                         break
                     except Exception as exc:  # any fault: a job that died here would lose its trial unseen
                         if self._stop.is_set():  # interrupted: the trial is not recorded, --resume flies it
                             break
                         log.error("%s failed on attempt %d: %s: %s", trial.name, attempt, type(exc).__name__, exc,
                                   exc_info=not isinstance(exc, EXPECTED_FAULTS))
-                        resources.close()
+                        _close_quietly(resources)
                         running, current = None, None
                         if attempt == 2:
-                            self._record(error_row(trial, f"{type(exc).__name__}: {exc}"))
+                            row = error_row(trial, f"{type(exc).__name__}: {exc}")
+                if row is not None:
+                    self._record_safely(row)
         finally:
             self._live.pop(index, None)
             try:

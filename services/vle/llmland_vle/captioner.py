@@ -66,7 +66,7 @@ class BatchCaptioner:
 
     def _generate_frame_and_crops(self, frame_rgb: np.ndarray, crops: Sequence[np.ndarray]) -> list[str]:
         """Texts for a frame then its crops (a backend that can decode them together overrides this)."""
-        return self._generate([frame_rgb], "frame") + (self._generate(crops, "object") if crops else [])
+        return self._generate([frame_rgb], "frame") + (self._generate(crops, "object") if len(crops) else [])
 
     def caption(self, image_rgb: np.ndarray, kind: CaptionKind = "frame") -> Caption:
         return self.caption_batch([image_rgb], kind=kind)[0]

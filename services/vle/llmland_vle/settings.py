@@ -33,8 +33,8 @@ class VleSettings(BaseSettings):
     #: torch CPU threads. One: the VLE shares the CPU with the planner and the sim (a drone's
     #: companion computer, or this machine's 2 cores). There a second torch thread waits at every
     #: layer for a core that another process holds: in a lockstep episode on 2 cores a frame took
-    #: 18.8 ms with 2 threads and 12.9 ms with 1. Alone, 2 threads gain ≈ 5 %; raise it on a
-    #: machine with cores to spare.
+    #: 18.8 ms with 2 threads and 12.9 ms with 1 (simcap). Alone, 2 threads gain ≈ 5 %; raise it
+    #: on a machine with cores to spare, and for ``blip`` (measured with simcap only).
     threads: Annotated[int, Field(ge=1, le=64)] = 1
     #: depth blobs: pixel stride and range, as the planner uses them
     blob_stride: Annotated[int, Field(ge=1, le=8)] = 2

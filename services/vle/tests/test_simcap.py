@@ -107,6 +107,10 @@ def test_the_written_out_gru_step_decodes_the_same_words(heldout) -> None:  # ty
     ours = model.greedy(crops, vocab.bos("object"), vocab.eos, logit_bias=bias)
     ref = _greedy_with_gru_module(model, crops, vocab.bos("object"), vocab.eos, bias)
     assert ours.shape == ref.shape and torch.equal(ours, ref)
+    frames = images_to_tensor([resize(f, cap.frame_size) for f in heldout.frames[:16]])
+    ours = model.greedy(frames, vocab.bos("frame"), vocab.eos, logit_bias=bias)
+    ref = _greedy_with_gru_module(model, frames, vocab.bos("frame"), vocab.eos, bias)
+    assert ours.shape == ref.shape and torch.equal(ours, ref)
 
     assert len(heldout.frames) >= 6
     for k, frame in enumerate(heldout.frames[:6]):

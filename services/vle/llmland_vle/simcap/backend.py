@@ -102,7 +102,7 @@ class SimcapCaptioner(BatchCaptioner):
         caption word by word together (the frame's row starts with ``<frame>``)."""
         with torch.inference_mode():
             feats = [self.model.encoder(images_to_tensor([resize(check_rgb(frame_rgb), self.frame_size)]))]
-            if crops:
+            if len(crops):
                 feats.append(self.model.encoder(images_to_tensor([resize(check_rgb(c), self.crop_size)
                                                                   for c in crops])))
             bos = torch.tensor([self.vocab.bos("frame")] + [self.vocab.bos("object")] * len(crops))
