@@ -116,10 +116,10 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     methods, worlds = _csv(args.methods), _csv(args.worlds)
     for m in methods or []:
         if m not in METHODS:
-            raise SystemExit(f"unknown method {m!r}; choose from {', '.join(METHODS)}")
+            raise SystemExit(f"llmland experiment: unknown method {m!r}; choose from {', '.join(METHODS)}")
     for w in worlds or []:
         if w not in WORLDS:
-            raise SystemExit(f"unknown world {w!r}; choose from {', '.join(WORLDS)}")
+            raise SystemExit(f"llmland experiment: unknown world {w!r}; choose from {', '.join(WORLDS)}")
     try:
         summary = run_experiment(
             args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
@@ -282,7 +282,8 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
                      help="semantic methods: real perception (default) or specs given from ground truth")
     exp.add_argument("--gguf", action="append", default=[], help="exp3: another GGUF model to compare (repeat)")
     exp.add_argument("--jobs", type=int, default=1, help="episodes in parallel, each its own stack and bus port")
-    exp.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    exp.add_argument("--timeout", type=float, default=90.0,
+                     help="episode time limit (sim seconds; default 90, the paper's; a landing takes 20-60 s)")
     exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
     exp.add_argument("--resume", action="store_true", help="skip the trials already in OUT/trials.csv")
     exp.add_argument("--out", required=True, help="results folder")
