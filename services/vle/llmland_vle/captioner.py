@@ -75,20 +75,21 @@ class BatchCaptioner:
                                 crops: Sequence[np.ndarray]) -> tuple[Caption, list[Caption]]:
         """The frame's caption (``kind="frame"``) and one per crop (``"object"``), in one model pass
         where the backend allows; ``latency_ms`` of each is the pass's time over the images."""
-        t0 = time.perf_counter()
-        with self._lock:
-            texts = self._generate_frame_and_crops(frame_rgb, crops)
-        per_ms = (time.perf_counter() - t0) * 1e3 / (1 + len(crops))
-        caps = [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
+        caps = self._timed(lambda: self._generate_frame_and_crops(frame_rgb, crops), 1 + len(crops))
         return caps[0], caps[1:]
 
     def caption_batch(self, images: Sequence[np.ndarray], kind: CaptionKind = "object") -> list[Caption]:
         if not images:
             return []
+        return self._timed(lambda: self._generate(images, kind), len(images))
+
+    def _timed(self, generate: Callable[[], list[str]], n_images: int) -> list[Caption]:
+        """Run ``generate`` under the model lock; its texts as :class:`Caption` s, each with the
+        pass's time over ``n_images``."""
         t0 = time.perf_counter()
         with self._lock:
-            texts = self._generate(images, kind)
-        per_ms = (time.perf_counter() - t0) * 1e3 / len(images)
+            texts = generate()
+        per_ms = (time.perf_counter() - t0) * 1e3 / n_images
         return [Caption(text=t, backend=self.backend, model=self.model_version, latency_ms=per_ms) for t in texts]
 
 

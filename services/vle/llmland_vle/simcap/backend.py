@@ -91,20 +91,24 @@ class SimcapCaptioner(BatchCaptioner):
         log.info("simcap %s loaded: %d parameters, crops %d px, frames %d px", version, n, self.crop_size,
                  self.frame_size)
 
-    def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
-        size = self.frame_size if kind == "frame" else self.crop_size
-        batch = images_to_tensor([resize(check_rgb(im), size) for im in images])
-        ids = self.model.greedy(batch, self.vocab.bos(kind), self.vocab.eos, logit_bias=self.logit_bias)
+    def _features(self, images: Sequence[np.ndarray], size: int) -> torch.Tensor:
+        """Encoder features (B, feature_dim) of ``images`` resized to ``size`` px."""
+        return self.model.encoder(images_to_tensor([resize(check_rgb(im), size) for im in images]))
+
+    def _decode(self, feats: torch.Tensor, bos: list[int]) -> list[str]:
+        ids = self.model.decode(feats, torch.tensor(bos), self.vocab.eos, logit_bias=self.logit_bias)
         return [self.vocab.decode(row.tolist()) for row in ids]
 
+    @torch.inference_mode()
+    def _generate(self, images: Sequence[np.ndarray], kind: CaptionKind) -> list[str]:
+        size = self.frame_size if kind == "frame" else self.crop_size
+        return self._decode(self._features(images, size), [self.vocab.bos(kind)] * len(images))
+
+    @torch.inference_mode()
     def _generate_frame_and_crops(self, frame_rgb: np.ndarray, crops: Sequence[np.ndarray]) -> list[str]:
         """One decode for the frame and its crops: each size through the encoder, then every
         caption word by word together (the frame's row starts with ``<frame>``)."""
-        with torch.inference_mode():
-            feats = [self.model.encoder(images_to_tensor([resize(check_rgb(frame_rgb), self.frame_size)]))]
-            if len(crops):
-                feats.append(self.model.encoder(images_to_tensor([resize(check_rgb(c), self.crop_size)
-                                                                  for c in crops])))
-            bos = torch.tensor([self.vocab.bos("frame")] + [self.vocab.bos("object")] * len(crops))
-            ids = self.model.decode(torch.cat(feats), bos, self.vocab.eos, logit_bias=self.logit_bias)
-        return [self.vocab.decode(row.tolist()) for row in ids]
+        feats = [self._features([frame_rgb], self.frame_size)]
+        if len(crops):
+            feats.append(self._features(crops, self.crop_size))
+        return self._decode(torch.cat(feats), [self.vocab.bos("frame")] + [self.vocab.bos("object")] * len(crops))
