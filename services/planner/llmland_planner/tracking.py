@@ -130,6 +130,8 @@ class TrackedObstacle:
     #: it has been seen moving (set by the caller's motion test): a person who walked and now
     #: stands still is still a possible person
     has_moved: bool = False
+    #: the last matched view cut it at an image edge (its seen height may be the view's)
+    last_view_cut: bool = False
     #: the semantic spec attached to it (by the world model), if any
     spec: AttachedSpec | None = None
     #: (3,) horizontal velocity (m/s) both visible edges agree on (see the module docstring)
@@ -262,14 +264,24 @@ class ObstacleTracker:
         ``gate_m`` for every pair; for a track unseen for a while, the gate widens at
         ``gate_growth_mps`` (up to ``gate_max_m``) towards blobs of about its height, so a
         person who walked on while out of view is picked up again instead of leaving a
-        ghost track behind.
+        ghost track behind. A track that has moved, last seen whole, gets no blob seen whole whose
+        height differs from its own by more than ``GATE_HEIGHT_ALIKE_M`` (the gate is -1 m): a
+        walker's track must not stay on a still thing the walker passed.
         """
         age = np.array([max(0.0, stamp_s - t.last_seen_s) for t in self._tracks])
         wide = np.minimum(self.gate_m + self.gate_growth_mps * age, max(self.gate_m, self.gate_max_m))
         t_h = np.array([t.height_m for t in self._tracks])
         b_h = np.array([b.hi_m[2] - b.lo_m[2] for b in blobs])
         alike = np.abs(t_h[:, None] - b_h[None, :]) <= GATE_HEIGHT_ALIKE_M
-        return np.where(alike, wide[:, None], self.gate_m)
+        gates = np.where(alike, wide[:, None], self.gate_m)
+        # A track that has moved keeps its identity only on blobs of about its height, where the
+        # views on both sides are whole: a walker's track must not stay on a still thing of
+        # another height that the walker passed (their blobs merge, then part; a merged blob has
+        # the walker's height). Left there, it made the still thing a possible person for good.
+        walker = np.array([t.has_moved and not t.last_view_cut for t in self._tracks])
+        whole = np.array([not (b.touches_border or b.touches_top) for b in blobs])
+        other = walker[:, None] & whole[None, :] & ~alike
+        return np.where(other, -1.0, gates)
 
     def _new_track(self, blob: Blob, stamp_s: float, source: str = "") -> TrackedObstacle:
         track = TrackedObstacle(
@@ -280,6 +292,7 @@ class ObstacleTracker:
             velocity_mps=np.zeros(3),
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
+            last_view_cut=blob.touches_border or blob.touches_top,
         )
         if source != "down":
             self._fold_top(track, blob)
@@ -308,6 +321,7 @@ class ObstacleTracker:
         track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
+        track.last_view_cut = blob.touches_border or blob.touches_top
         if source != "down":  # a downward view sees tops; a side view may cut them off
             self._fold_top(track, blob)
         track.last_seen_s = max(track.last_seen_s, stamp_s)

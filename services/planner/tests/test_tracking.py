@@ -282,3 +282,36 @@ def test_a_thing_that_has_moved_and_is_cut_at_the_top_has_an_unknown_top() -> No
     tr.has_moved = True
     (tr,) = tracker.update([_cut(car, 1.0)], DT_S)
     assert tr.touches_top and tr.height_m == 1.0
+
+
+def _merged(a: Blob, b: Blob) -> Blob:
+    """One blob of two things close enough to be one depth cluster."""
+    lo, hi = np.minimum(a.lo_m, b.lo_m), np.maximum(a.hi_m, b.hi_m)
+    return replace(a, centroid_m=(lo + hi) / 2, mean_m=(lo + hi) / 2, lo_m=lo, hi_m=hi, size_m=hi - lo)
+
+
+def test_a_walkers_track_does_not_stay_on_a_still_thing_it_passed() -> None:
+    """A walker (1.7 m) passes a rock (0.85 m) first seen while the two are one cluster. When
+    they part, the walker's track used to stay on the rock (the nearer centroid) and a new track
+    took the walker: the rock had moved, so it stayed a possible person for good (open_field seed
+    2 at 8b7f148, held-out seed 97 at 429d175). A track that has moved now keeps only blobs of
+    about its height."""
+    tracker = ObstacleTracker(gate_m=1.5)
+    rock = blob(0.0, 0.0, half_m=0.6, height_m=0.85)
+    walker_id = None
+    for k in range(30):
+        t = k * DT_S
+        walker = blob(-4.0 + 1.4 * t, 0.5)
+        near = abs(walker.centroid_m[0]) < 1.2
+        seen_rock = walker.centroid_m[0] > -1.2  # the rock comes into view as the walker reaches it
+        blobs = [_merged(walker, rock)] if near else ([walker, rock] if seen_rock else [walker])
+        tracks = tracker.update(blobs, t)
+        if k == 5:
+            (first,) = tracks
+            walker_id = first.track_id
+            first.has_moved = True  # the caller's motion test: it has walked 1.4 m
+    live = {tr.track_id: tr for tr in tracker.tracks()}
+    on_walker = min(live.values(), key=lambda tr: abs(tr.centroid_m[0] - walker.centroid_m[0]))
+    on_rock = min(live.values(), key=lambda tr: float(np.linalg.norm(tr.centroid_m[:2])))
+    assert on_walker.track_id == walker_id and on_walker.has_moved
+    assert on_rock.track_id != walker_id and not on_rock.has_moved
