@@ -79,6 +79,13 @@ def _minmod(a: FloatArray, b: FloatArray) -> FloatArray:
     return np.where(a * b > 0.0, np.sign(a) * np.minimum(np.abs(a), np.abs(b)), 0.0)
 
 
+def _cut(blob: Blob) -> bool:
+    """Whether the view cut ``blob`` at an image edge, so its bounds (its height too) are partly
+    the view's. A blob cut at the top touches the border too; both are read so that a blob built
+    with only ``touches_top`` set counts as cut."""
+    return blob.touches_border or blob.touches_top
+
+
 @dataclass(frozen=True)
 class _Seen:
     """One camera's view of a track: centroid and visible-surface bounds (3,) each, m; ``cut``:
@@ -92,7 +99,7 @@ class _Seen:
     @classmethod
     def of(cls, blob: Blob) -> _Seen:
         c, lo, hi = (np.array(x, dtype=np.float64) for x in (blob.centroid_m, blob.lo_m, blob.hi_m))
-        return cls(c, lo, hi, cut=blob.touches_border)
+        return cls(c, lo, hi, cut=_cut(blob))
 
     @classmethod
     def of_track(cls, track: TrackedObstacle) -> _Seen:
@@ -279,7 +286,7 @@ class ObstacleTracker:
         # another height that the walker passed (their blobs merge, then part; a merged blob has
         # the walker's height). Left there, it made the still thing a possible person for good.
         walker = np.array([t.has_moved and not t.last_view_cut for t in self._tracks])
-        whole = np.array([not (b.touches_border or b.touches_top) for b in blobs])
+        whole = np.array([not _cut(b) for b in blobs])
         other = walker[:, None] & whole[None, :] & ~alike
         return np.where(other, -1.0, gates)
 
@@ -292,7 +299,7 @@ class ObstacleTracker:
             velocity_mps=np.zeros(3),
             first_seen_s=stamp_s,
             last_seen_s=stamp_s,
-            last_view_cut=blob.touches_border or blob.touches_top,
+            last_view_cut=_cut(blob),
         )
         if source != "down":
             self._fold_top(track, blob)
@@ -321,7 +328,7 @@ class ObstacleTracker:
         track.centroid_m = seen.centroid_m.copy()
         track.lo_m = np.array(blob.lo_m, dtype=np.float64)
         track.hi_m = np.array(blob.hi_m, dtype=np.float64)
-        track.last_view_cut = blob.touches_border or blob.touches_top
+        track.last_view_cut = seen.cut
         if source != "down":  # a downward view sees tops; a side view may cut them off
             self._fold_top(track, blob)
         track.last_seen_s = max(track.last_seen_s, stamp_s)
