@@ -210,6 +210,9 @@ class WorldModel:
                                                       s.stamp_s):
                 direct = dist <= self.settings.spec_match_m
                 spec = s.spec
+                log.debug("t=%.2f spec of frame %.2f (%s %r, %s) reaches %s at %.2f m (%s; height %.2f m, moved %s)",
+                          t_s, s.stamp_s, s.obj.obj_id, spec.caption, spec.label, track.track_id, dist,
+                          "its blob" if direct else "the object's footprint", track.height_m, track.has_moved)
                 if not direct and person_sized(track, self.settings):
                     spec = more_careful(self.spec_for(track, t_s), spec)
                 prev = batch.get(track.track_id)

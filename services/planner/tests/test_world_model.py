@@ -91,6 +91,21 @@ def test_person_and_rock_on_one_track_keep_the_persons_spec():
     assert _regions(wm, 0.1)[0].label == "person"
 
 
+def test_the_debug_log_names_which_spec_reached_which_track(caplog: pytest.LogCaptureFixture) -> None:
+    """Diagnosing a hold needs to know which caption labelled the binding track (Exp 3 seed 41: a
+    red rock captioned "a person in a red shirt walking on the grass")."""
+    wm = WorldModel(PlannerSettings(), "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    msg = _person_spec(0.0, 0.0)
+    caption = "a person in a red shirt walking on the grass"
+    spec = msg.objects[0].spec.model_copy(update={"caption": caption})
+    wm.on_spec(msg.model_copy(update={"objects": [msg.objects[0].model_copy(update={"spec": spec})]}))
+    with caplog.at_level("DEBUG", logger="llmland_planner.world_model"):
+        wm.release_specs(0.0)
+    (line,) = [r.getMessage() for r in caplog.records if "reaches" in r.getMessage()]
+    assert caption in line and "t0" in line and "its blob" in line
+
+
 def test_every_blob_of_one_tree_takes_its_spec():
     """Regression (open_field seed 5): a tree's trunk and crown are two blobs; only the
     nearest took the tree's spec, the crown stayed 'unknown' (most conservative, growing)
