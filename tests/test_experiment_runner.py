@@ -4,6 +4,7 @@ fail and are flown again by ``--resume``."""
 
 from __future__ import annotations
 
+import csv
 import faulthandler
 import signal
 from collections.abc import Iterator
@@ -154,3 +155,22 @@ def test_resume_refuses_rows_flown_with_another_latency_model(tmp_path: Path, st
     experiment.run_experiment("exp1", tmp_path / "b", trials=2, methods=["baseline"], latency_model="fixed:200")
     summary = experiment.run_experiment("exp1", tmp_path / "b", trials=2, methods=["baseline"], resume=True)
     assert summary["rows"][0]["n"] == 2
+
+
+def test_resume_on_a_folder_written_with_older_columns_keeps_rows_in_line(tmp_path: Path,
+                                                                           stand_ins: dict[int, int]) -> None:
+    """A folder from before a column was added (``commands_missing``): its rows are rewritten with
+    today's header before new ones are appended, so every row reads back under the right names."""
+    experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"])
+    path = tmp_path / "trials.csv"
+    old = [c for c in COLUMNS if c != "commands_missing"]
+    rows = read_rows(path)
+    with path.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=old, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    summary = experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], resume=True)
+    assert summary["rows"][0]["n"] == 3
+    assert path.read_text().splitlines()[0] == ",".join(COLUMNS)
+    assert [r["outcome"] for r in read_rows(path)] == ["landed"] * 3
+    assert [r["latency_model"] for r in read_rows(path)] == ["measured"] * 3

@@ -38,7 +38,7 @@ COLUMNS = [
     "closest_person_m", "min_person_distance_m", "close_calls", "collisions", "spec_latency_ms_mean",
     "latency_model", "perception_requests", "perception_degraded", "perception_degraded_s", "fallback_specs",
     "sim_time_s", "spec_compute_ms_mean", "mpc_solve_ms_p50", "mpc_solve_ms_p95", "deadline_misses",
-    "peak_memory_mb", "wall_time_s", "episode_id",
+    "commands_missing", "peak_memory_mb", "wall_time_s", "episode_id",
 ]
 #: columns that depend on the machine's speed and load, not on the episode (the rest must be
 #: identical when the same seeds are flown again with the same latency model)
@@ -75,7 +75,8 @@ def trial_row(trial: Trial, r: EpisodeResult, peak_memory_mb: float | None) -> d
         "perception_degraded_s": _fmt(r.perception_degraded_s, 2), "fallback_specs": r.fallback_specs,
         "sim_time_s": _fmt(r.sim_time_s, 2), "spec_compute_ms_mean": _fmt(r.spec_compute_ms_mean, 1),
         "mpc_solve_ms_p50": _fmt(r.mpc_solve_ms_p50), "mpc_solve_ms_p95": _fmt(r.mpc_solve_ms_p95),
-        "deadline_misses": r.deadline_misses, "peak_memory_mb": _fmt(peak_memory_mb, 1),
+        "deadline_misses": r.deadline_misses, "commands_missing": r.commands_missing,
+        "peak_memory_mb": _fmt(peak_memory_mb, 1),
         "wall_time_s": _fmt(r.wall_time_s, 2), "episode_id": r.episode_id,
     }
 
@@ -97,6 +98,11 @@ def error_row(trial: Trial, reason: str) -> dict[str, Any]:
     return row
 
 
+def _header(path: Path) -> list[str]:
+    with path.open(newline="") as fh:
+        return next(csv.reader(fh), [])
+
+
 def read_rows(path: Path) -> list[dict[str, str]]:
     if not path.exists():
         return []
@@ -107,10 +113,12 @@ def read_rows(path: Path) -> list[dict[str, str]]:
 def drop_error_rows(path: Path) -> list[dict[str, str]]:
     """Remove the ``error`` rows from the CSV at ``path`` (a stack fault is not a result: ``--resume``
     flies those trials again) and return the rows that stay. The file is replaced in one step (a
-    crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`."""
+    crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`; so is a
+    file an older version wrote with other columns, or the rows appended to it would not line up
+    with its header (a column missing from it stays empty)."""
     rows = read_rows(path)
     kept = [r for r in rows if r["outcome"] != "error"]
-    if len(kept) < len(rows):
+    if len(kept) < len(rows) or (path.exists() and _header(path) != COLUMNS):
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")

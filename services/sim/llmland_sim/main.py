@@ -5,10 +5,11 @@ Subscribes ``llmland/<d>/mission`` (MissionGoal) and ``llmland/<d>/planner/comma
 ``camera_hz``, ``sim/truth`` at ``truth_hz`` and ``episode/result`` at the end.
 
 Clock modes (DESIGN §4): ``lockstep`` publishes each tick's state and waits, bounded by
-``lockstep_timeout_s``, for the command echoing its ``seq`` (a miss, or a command whose
-controller compute time `tick_ms` exceeded the control period, is counted and the
-vehicle holds its last input, then holds position); ``realtime`` paces ticks to the wall
-clock and applies the newest command.
+``lockstep_timeout_s``, and on while the planner's liveliness token is up (at most
+``lockstep_max_wait_s``), for the command echoing its ``seq``: a miss is counted and the
+vehicle holds its last input, then holds position; a command whose controller compute time
+``tick_ms`` exceeded the control period is applied and counted as an overrun. ``realtime`` paces
+ticks to the wall clock and applies the newest command.
 
 Camera frames due at a tick are rendered from that tick's state *after* the state is
 published, while the planner computes its command, and reach the planner with the next
@@ -55,6 +56,8 @@ log = logging.getLogger("llmland.sim")
 
 #: lockstep: after a tick without a command, wait this long (s, wall) until the planner is back
 DEAD_PLANNER_WAIT_S = 0.05
+#: How long (s) a liveliness query for the planner's token may take.
+PLANNER_ALIVE_QUERY_S = 1.0
 
 
 class SimService:
@@ -243,19 +246,45 @@ class SimService:
 
     def _await_command(self, mission: MissionGoal, wall0: float) -> ControlCommand | None:
         """The command for this tick (lockstep: wait for it; realtime: the newest, wall-paced)."""
-        s, sim = self.settings, self.sim
+        sim = self.sim
         if mission.clock != "lockstep":
             time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
             return self.commands.take_latest()
         # After a miss the planner is presumed dead: wait only briefly until it answers again,
         # so a dead planner costs the vehicle-side failsafe, not 10 s of wall time per tick.
-        timeout = s.lockstep_timeout_s if self._planner_ok else DEAD_PLANNER_WAIT_S
         with self.walls.time("planner_wait"):
-            cmd = self.commands.wait_for(sim.seq, timeout)
+            cmd = self._wait_for_planner(sim.seq) if self._planner_ok else self.commands.wait_for(
+                sim.seq, DEAD_PLANNER_WAIT_S)
         self._planner_ok = cmd is not None
         if cmd is None and sim.score is not None:
             sim.score.observe_deadline_miss()
         return cmd
+
+    def _wait_for_planner(self, seq: int) -> ControlCommand | None:
+        """Lockstep: the command echoing ``seq``, or None for a planner that is gone or hung.
+
+        Waits ``lockstep_timeout_s``, then on, a slice of that at a time, while the planner's
+        liveliness token is up, up to ``lockstep_max_wait_s`` in all. A slow tick must not change
+        the episode: a search at its largest budget took 9.7 s of wall beside other episodes on 2
+        cores, and past the old fixed 10 s wait the failsafe flew the vehicle instead, so the same
+        seed flew another episode under load (Exp 2 urban 12, baseline, at a94c218: a time-out in
+        248 s of wall against a landing at 50.0 s alone). A planner whose process ends takes its
+        token with it (Zenoh liveliness), so a dead planner is still a miss after the first slice. A
+        stop (the service's, or the episode's) ends the wait at the next slice.
+        """
+        s = self.settings
+        cmd = self.commands.wait_for(seq, s.lockstep_timeout_s)
+        waited = s.lockstep_timeout_s
+        while (cmd is None and waited < s.lockstep_max_wait_s and not (self.stop.is_set() or self.sim.done)
+               and self._planner_alive()):
+            log.warning("tick %d: no command after %.0f s of wall; the planner is alive, waiting on", seq, waited)
+            cmd = self.commands.wait_for(seq, s.lockstep_timeout_s)
+            waited += s.lockstep_timeout_s
+        return cmd
+
+    def _planner_alive(self) -> bool:
+        """Whether this drone's planner holds its liveliness token (a query, ≤ 1 s)."""
+        return bool(self.bus.alive(alive(self.settings.drone_id, "planner"), PLANNER_ALIVE_QUERY_S))
 
     def _finish(self, mission: MissionGoal) -> None:
         sim, clock, rec = self.sim, self.clock, self.recorder

@@ -32,12 +32,17 @@ class SimSettings(BaseSettings):
     renderer: Literal["auto", "tiny", "egl"] = "auto"
     truth_hz: float = 10.0
     gui: bool = False
-    #: Lockstep: longest wall time to wait for the command echoing a tick's seq. Generous:
-    #: lockstep trades wall time for reproducibility, and a planner tick that waits for its
-    #: search worker on a heavily loaded machine can take more than a second (measured with
-    #: load average 4 on 2 cores: a 1 s limit made seeded runs diverge); only a dead planner
-    #: should run into it (overruns are still counted from the command's ``tick_ms``).
+    #: Lockstep: wall time to wait for the command echoing a tick's seq before asking whether the
+    #: planner is still alive (then the wait goes on, see ``lockstep_max_wait_s``). Lockstep trades
+    #: wall time for reproducibility: a planner tick that waits for its search worker on a loaded
+    #: machine can take seconds (load average 4 on 2 cores: a 1 s limit made seeded runs diverge;
+    #: 9.7 s for a search at its largest budget beside other episodes); overruns are still counted
+    #: from the command's ``tick_ms``.
     lockstep_timeout_s: float = 10.0
+    #: Lockstep: past ``lockstep_timeout_s`` the sim waits on, while the planner's liveliness
+    #: token is up, up to this much wall time (s) in all: a slow tick (a search at its largest
+    #: budget on a loaded machine) must not change the episode; a hung planner ends the wait here.
+    lockstep_max_wait_s: float = 300.0
     #: Lockstep with perception: a frame's spec not received within this wall time (s) is
     #: abandoned and perception counts as degraded (VLE or reasoner down) until one arrives
     perception_timeout_s: float = 15.0

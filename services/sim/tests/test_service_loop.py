@@ -7,7 +7,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from llmland_schemas import ControlCommand, MissionGoal, Topic, VehicleState, key
+from llmland_schemas import ControlCommand, EpisodeResult, MissionGoal, Topic, VehicleState, key
 from llmland_schemas.frames import decode_frame
 from llmland_sim.main import SimService
 from llmland_sim.settings import SimSettings
@@ -85,3 +85,51 @@ def test_without_commands_the_failsafe_climbs_above_peoples_reach_and_holds() ->
         sim.close()
     assert pos[2] >= settings.failsafe_min_height_m - 0.15
     assert np.linalg.norm(pos[:2] - np.array(start[:2])) < 0.3
+
+
+class _SlowPlannerBus(_LoopbackBus):
+    """A planner that answers one tick late (a search at its largest budget on a loaded machine),
+    and whose liveliness token is up or not."""
+
+    def __init__(self, slow_seq: int, delay_s: float, planner_alive: bool) -> None:
+        super().__init__()
+        self.slow_seq, self.delay_s, self.planner_alive = slow_seq, delay_s, planner_alive
+        self.alive_queries = 0
+
+    def alive(self, selector: str, timeout_s: float = 1.0) -> set[str]:
+        self.alive_queries += 1
+        return {selector} if self.planner_alive and selector.endswith("/alive/planner") else set()
+
+    def publish(self, k: str, msg: BaseModel, *, express: bool = False) -> None:
+        if isinstance(msg, VehicleState) and msg.seq == self.slow_seq:
+            self.log.append((k, msg))
+            cmd = ControlCommand(stamp=msg.stamp, seq=msg.seq, state_seq=msg.seq, body_rates_rps=(0.0, 0.0, 0.0),
+                                 thrust_n=9.81, mode="hover", source="test")
+            threading.Timer(self.delay_s, self._subs[key("d0", Topic.COMMAND)], args=(k, cmd)).start()
+            return
+        super().publish(k, msg, express=express)
+
+
+def _fly_with(bus: _SlowPlannerBus) -> EpisodeResult:
+    settings = SimSettings(renderer="tiny", camera_width=64, camera_height=64, down_camera_size=64,
+                           lockstep_timeout_s=0.05, lockstep_max_wait_s=5.0)
+    service = SimService(settings, bus, threading.Event())  # type: ignore[arg-type]
+    try:
+        service.run_episode(MissionGoal(episode_id="e", world="open_field", seed=1, method="baseline",
+                                        clock="lockstep", timeout_s=0.2))
+    finally:
+        service.sim.close()
+    (result,) = [m for _k, m in bus.log if isinstance(m, EpisodeResult)]
+    return result
+
+
+def test_a_slow_tick_of_a_live_planner_is_waited_for_not_flown_by_the_failsafe() -> None:
+    """Regression (Exp 2 urban 12, baseline, at a94c218): a search at its largest budget took more
+    than the sim's fixed wait beside other episodes, the failsafe flew that tick and the ones after
+    it, and the seed timed out in the experiment while it lands alone. The wait now goes on while the
+    planner's liveliness token is up; a planner whose token is gone is still a miss."""
+    live = _SlowPlannerBus(slow_seq=3, delay_s=0.3, planner_alive=True)
+    result = _fly_with(live)
+    assert result.commands_missing == 0 and live.alive_queries >= 1
+    gone = _SlowPlannerBus(slow_seq=3, delay_s=0.3, planner_alive=False)
+    assert _fly_with(gone).commands_missing >= 1
