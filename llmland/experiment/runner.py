@@ -98,11 +98,6 @@ def error_row(trial: Trial, reason: str) -> dict[str, Any]:
     return row
 
 
-def _header(path: Path) -> list[str]:
-    with path.open(newline="") as fh:
-        return next(csv.reader(fh), [])
-
-
 def read_rows(path: Path) -> list[dict[str, str]]:
     if not path.exists():
         return []
@@ -116,9 +111,13 @@ def drop_error_rows(path: Path) -> list[dict[str, str]]:
     crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`; so is a
     file an older version wrote with other columns, or the rows appended to it would not line up
     with its header (a column missing from it stays empty)."""
-    rows = read_rows(path)
+    if not path.exists():
+        return []
+    with path.open(newline="") as fh:
+        reader = csv.DictReader(fh)
+        rows = list(reader)
     kept = [r for r in rows if r["outcome"] != "error"]
-    if len(kept) < len(rows) or (path.exists() and _header(path) != COLUMNS):
+    if len(kept) < len(rows) or reader.fieldnames != COLUMNS:
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")

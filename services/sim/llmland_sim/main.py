@@ -253,8 +253,10 @@ class SimService:
         # After a miss the planner is presumed dead: wait only briefly until it answers again,
         # so a dead planner costs the vehicle-side failsafe, not 10 s of wall time per tick.
         with self.walls.time("planner_wait"):
-            cmd = self._wait_for_planner(sim.seq) if self._planner_ok else self.commands.wait_for(
-                sim.seq, DEAD_PLANNER_WAIT_S)
+            if self._planner_ok:
+                cmd = self._wait_for_planner(sim.seq)
+            else:
+                cmd = self.commands.wait_for(sim.seq, DEAD_PLANNER_WAIT_S)
         self._planner_ok = cmd is not None
         if cmd is None and sim.score is not None:
             sim.score.observe_deadline_miss()
@@ -272,15 +274,14 @@ class SimService:
         token with it (Zenoh liveliness), so a dead planner is still a miss after the first slice. A
         stop (the service's, or the episode's) ends the wait at the next slice.
         """
-        s = self.settings
-        cmd = self.commands.wait_for(seq, s.lockstep_timeout_s)
-        waited = s.lockstep_timeout_s
-        while (cmd is None and waited < s.lockstep_max_wait_s and not (self.stop.is_set() or self.sim.done)
-               and self._planner_alive()):
-            log.warning("tick %d: no command after %.0f s of wall; the planner is alive, waiting on", seq, waited)
+        s, waited = self.settings, 0.0
+        while True:
             cmd = self.commands.wait_for(seq, s.lockstep_timeout_s)
             waited += s.lockstep_timeout_s
-        return cmd
+            if (cmd is not None or waited >= s.lockstep_max_wait_s or self.stop.is_set() or self.sim.done
+                    or not self._planner_alive()):
+                return cmd
+            log.warning("tick %d: no command after %.0f s of wall; the planner is alive, waiting on", seq, waited)
 
     def _planner_alive(self) -> bool:
         """Whether this drone's planner holds its liveliness token (a query, ≤ 1 s)."""

@@ -28,12 +28,16 @@ class _LoopbackBus:
     def announce(self, _token: str) -> None:
         pass
 
+    @staticmethod
+    def hover(state: VehicleState) -> ControlCommand:
+        """The command answering ``state``."""
+        return ControlCommand(stamp=state.stamp, seq=state.seq, state_seq=state.seq, body_rates_rps=(0.0, 0.0, 0.0),
+                              thrust_n=9.81, mode="hover", source="test")
+
     def publish(self, k: str, msg: BaseModel, *, express: bool = False) -> None:
         self.log.append((k, msg))
         if isinstance(msg, VehicleState):
-            cmd = ControlCommand(stamp=msg.stamp, seq=msg.seq, state_seq=msg.seq, body_rates_rps=(0.0, 0.0, 0.0),
-                                 thrust_n=9.81, mode="hover", source="test")
-            self._subs[key("d0", Topic.COMMAND)](k, cmd)
+            self._subs[key("d0", Topic.COMMAND)](k, self.hover(msg))
 
     def publish_bytes(self, k: str, payload: bytes, *, block: bool = False) -> None:
         self.log.append((k, decode_frame(payload).header))
@@ -103,9 +107,7 @@ class _SlowPlannerBus(_LoopbackBus):
     def publish(self, k: str, msg: BaseModel, *, express: bool = False) -> None:
         if isinstance(msg, VehicleState) and msg.seq == self.slow_seq:
             self.log.append((k, msg))
-            cmd = ControlCommand(stamp=msg.stamp, seq=msg.seq, state_seq=msg.seq, body_rates_rps=(0.0, 0.0, 0.0),
-                                 thrust_n=9.81, mode="hover", source="test")
-            threading.Timer(self.delay_s, self._subs[key("d0", Topic.COMMAND)], args=(k, cmd)).start()
+            threading.Timer(self.delay_s, self._subs[key("d0", Topic.COMMAND)], args=(k, self.hover(msg))).start()
             return
         super().publish(k, msg, express=express)
 
