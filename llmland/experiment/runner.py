@@ -99,10 +99,17 @@ def error_row(trial: Trial, reason: str) -> dict[str, Any]:
 
 
 def read_rows(path: Path) -> list[dict[str, str]]:
+    return _read_table(path)[1]
+
+
+def _read_table(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    """The CSV at ``path``: its header and its rows (none of either when there is no file)."""
     if not path.exists():
-        return []
+        return [], []
     with path.open(newline="") as fh:
-        return list(csv.DictReader(fh))
+        reader = csv.DictReader(fh)
+        rows = list(reader)
+        return list(reader.fieldnames or []), rows
 
 
 def drop_error_rows(path: Path) -> list[dict[str, str]]:
@@ -111,13 +118,9 @@ def drop_error_rows(path: Path) -> list[dict[str, str]]:
     crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`; so is a
     file an older version wrote with other columns, or the rows appended to it would not line up
     with its header (a column missing from it stays empty)."""
-    if not path.exists():
-        return []
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        rows = list(reader)
+    header, rows = _read_table(path)
     kept = [r for r in rows if r["outcome"] != "error"]
-    if len(kept) < len(rows) or reader.fieldnames != COLUMNS:
+    if len(kept) < len(rows) or (path.exists() and header != COLUMNS):
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
