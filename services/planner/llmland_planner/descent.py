@@ -75,3 +75,23 @@ class DescentProfile:
         d_acc = (vm * vm - v0 * v0) / (2.0 * a)
         d_cruise = max(0.0, d - d_acc - h_flare)
         return (vm - v0) / a + d_cruise / vm + (vm - vt) / b
+
+
+def climb_out_time_s(height_m: float, sink_mps: float, exit_height_m: float, climb_speed_mps: float,
+                     accel_mps2: float) -> float:
+    """Seconds (s) until a climb-out started now takes the vehicle above ``exit_height_m``.
+
+    From ``height_m`` (m) sinking at ``sink_mps`` (m/s, positive down): braking at ``accel_mps2``
+    (m/s²) to rest costs ``v/a`` and ``v²/2a`` of height, then rising the remaining distance ``D``
+    from rest at ``accel_mps2`` up to ``climb_speed_mps`` takes ``D/v_c + v_c/2a`` (constant
+    acceleration, then constant speed; exact when ``D ≥ v_c²/2a``, an upper bound otherwise). No
+    climb is needed (0 s) when the vehicle stops above ``exit_height_m``.
+    """
+    if climb_speed_mps <= 0.0 or accel_mps2 <= 0.0:
+        raise ValueError(f"climb speed and acceleration must be positive, got {climb_speed_mps}, {accel_mps2}")
+    v = max(0.0, sink_mps)
+    lowest = height_m - v * v / (2.0 * accel_mps2)
+    rise = exit_height_m - lowest
+    if rise <= 0.0:  # it stops above the exit height: it never was within reach
+        return 0.0
+    return v / accel_mps2 + rise / climb_speed_mps + climb_speed_mps / (2.0 * accel_mps2)

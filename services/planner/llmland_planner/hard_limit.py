@@ -67,7 +67,11 @@ class HumanMotionBounds:
         ``speed_mps``: tracked speed (None: unknown, i.e. already at ``max_speed_mps``).
         ``∫₀^τ min(s₀ + a·t, v_max) dt`` with ``s₀ = speed + error + step`` (capped at v_max).
         """
+        if not math.isfinite(horizon_s):  # a NaN horizon must not read as no time at all
+            return math.inf
         tau = max(0.0, horizon_s)
+        if speed_mps is not None and not math.isfinite(speed_mps):
+            speed_mps = None
         v_max, a = self.max_speed_mps, self.max_accel_mps2
         s0 = v_max if speed_mps is None else min(v_max, speed_mps + self.speed_error_mps + self.step_speed_mps)
         t_cap = (v_max - s0) / a if a > 0 else math.inf
@@ -83,7 +87,9 @@ class PersonHypothesis:
     track_id: str
     centre_xy: FloatArray
     radius_m: float
-    speed_mps: float
+    #: tracked speed; None while the tracker has no velocity estimate yet (one sighting): then
+    #: unknown, i.e. already walking at the bound (:meth:`HumanMotionBounds.reach_m`)
+    speed_mps: float | None
     age_s: float  # time since it was last observed
     label: str = ""
 
@@ -119,15 +125,17 @@ def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], dur
     are the untracked bound's.
     """
     untracked = coverage_m - bounds.reach_m(duration_s + unseen_s) - xy_margin_m - hard_limit_m
-    worst = Clearance(untracked, "")
+    worst = Clearance(-math.inf if math.isnan(untracked) else untracked, "")
     p = np.asarray(landing_xy, dtype=float)[:2]
     within = coverage_m if lost_within_m is None else lost_within_m
     for person in people:
         dist = float(np.linalg.norm(p - person.centre_xy[:2]))
-        if person.age_s > recent_s and not lost_inside(dist, person, within, bounds):
+        if person.age_s > recent_s and not lost_inside(dist, person, within, bounds) and not math.isnan(dist):
             continue
         reach = bounds.reach_m(person.age_s + duration_s, person.speed_mps)
         margin = dist - person.radius_m - reach - xy_margin_m - hard_limit_m
+        if math.isnan(margin):  # a NaN position or radius: nothing is known, so nothing is clear
+            margin = -math.inf
         if margin < worst.margin_m:
             worst = Clearance(margin, person.track_id)
     return worst

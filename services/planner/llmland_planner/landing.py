@@ -8,8 +8,8 @@ Two layers (DESIGN §6):
   person, tracked or not, is provably farther than 1 m from the landing point until touchdown
   is complete. The gate is re-checked every tick of the descent: if a reachable set is about to
   touch (an assumption failed: someone faster than assumed, a missed detection), the vehicle
-  climbs out while it is higher than ``commit_height_m``; below, finishing is the quicker way
-  out of reach;
+  leaves reach the quicker way: it climbs out only when that takes less time than finishing
+  (:meth:`LandingLogic.climb_out_is_quicker`: near the top of the reach), else finishes;
 - the **semantic keep-out** (the specs' buffers, with predicted motion) shapes the path and the
   hover point (:meth:`~.world_model.WorldModel.regions`), and the landing disc must stay clear
   of moving things' predicted buffers and still things' footprints during the descent
@@ -32,7 +32,7 @@ import numpy as np
 from llmland_schemas.arrays import FloatArray
 
 from .coverage import HEIGHT_STEP_M
-from .descent import DescentProfile
+from .descent import DescentProfile, climb_out_time_s
 from .ground import ReachFloor
 from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
 from .regions import UNSEEN_TOP, UnsafeRegion
@@ -177,8 +177,14 @@ class LandingLogic:
         return (self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m)
                 + s.descent_time_margin_s + s.touchdown_dwell_s)
 
-    def gate(self, height_m: float, sink_mps: float, around: Surroundings, *, committed: bool = False) -> GateDecision:
+    def gate(self, height_m: float, sink_mps: float, around: Surroundings, *, committed: bool = False,
+             offset_m: float = 0.0) -> GateDecision:
         """The hard-limit gate for the rest of a descent from ``height_m`` sinking at ``sink_mps``.
+
+        ``offset_m``: the vehicle's horizontal distance (m) from the target now; the descent
+        re-centres on the target, so until touchdown the vehicle is within this plus the landing
+        point's error (``landing_xy_margin_m``) of it: the hold's arrival tolerance
+        (``align_radius_m``) is wider than that error alone.
 
         ``committed``: re-checking a descent under way. The untracked bound was shown at the
         commit for the whole descent (anyone outside the coverage then cannot reach the landing
@@ -195,12 +201,31 @@ class LandingLogic:
             self.commit_coverage_m = coverage
         # tracks lost where they cannot have left the coverage shown at the commit keep their own
         # reachable set while the descent is under way (hard_limit.lost_inside)
+        # without the coverage assumption (require_coverage off) no track can be left to the
+        # untracked bound, however old: every possible person counts
+        recent_s = s.recent_observation_s if s.require_coverage else math.inf
         clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
-                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m,
-                                     recent_s=s.recent_observation_s, lost_within_m=self.commit_coverage_m)
+                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m + max(0.0, offset_m),
+                                     recent_s=recent_s, lost_within_m=self.commit_coverage_m)
         clear = disc_clear(self.target_m[:2], s.landing_disc_radius_m, around.landing_regions(duration))
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate
+
+    def climb_out_is_quicker(self, height_m: float, sink_mps: float, around: Surroundings) -> bool:
+        """Whether climbing out now leaves everyone's reach sooner than finishing the descent.
+
+        Finishing: the profile's time to touchdown plus the touchdown dwell. Climbing out: braking at
+        the profile's own deceleration (what the MPC is known to track), then up at ``climb_speed_mps``
+        until above :data:`~.hard_limit.REACH_CEILING_M` over the target (or the reach floor there,
+        if higher) — :func:`.descent.climb_out_time_s`. Sinking at 2–3 m/s, the vehicle is about
+        0.5 m into reach before it stops, and climbs at 1.5 m/s: only in the top of the reach is
+        climbing the quicker way out. When a reachable set is about to touch, the shorter time in
+        reach is the smaller exposure, whichever way it goes.
+        """
+        s = self.settings
+        finish = self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m) + s.touchdown_dwell_s
+        exit_m = max(REACH_CEILING_M, around.floor_at(self.target_m) - float(self.target_m[2]))
+        return climb_out_time_s(height_m, sink_mps, exit_m, s.climb_speed_mps, s.descent_brake_mps2) < finish
 
     @property
     def lowered_hold(self) -> bool:
@@ -276,8 +301,9 @@ class LandingLogic:
             if height < s.touchdown_height_m:
                 self.phase = Phase.TOUCHDOWN
                 return self.phase, tgt
-            gate = self.gate(height, max(0.0, -float(vel[2])), around, committed=True)
-            if height > s.commit_height_m and not gate.open:
+            sink = max(0.0, -float(vel[2]))
+            if not self.gate(height, sink, around, committed=True, offset_m=horiz).open and self.climb_out_is_quicker(
+                    height, sink, around):
                 self.phase = Phase.CLIMB_OUT
                 return self.phase, hover
             return self.phase, tgt
@@ -297,7 +323,7 @@ class LandingLogic:
                 self.phase == Phase.APPROACH and arrived_at(approach))):
             self.phase = Phase.HOLD  # a lowered hold is reached straight down from the approach's end
         if self.phase == Phase.HOLD:
-            if arrived and self.gate(height, max(0.0, -float(vel[2])), around).open:
+            if arrived and self.gate(height, max(0.0, -float(vel[2])), around, offset_m=horiz).open:
                 self.phase = Phase.DESCEND
                 return self.phase, tgt
             if horiz > HOLD_LOST_M:

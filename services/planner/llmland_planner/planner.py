@@ -127,8 +127,14 @@ class Planner:
         assert self.world is not None and self.landing is not None
         w, s = self.world, self.settings
         fresh = w.last_down_stamp_s is not None and t - w.last_down_stamp_s <= DOWN_FRAME_FRESH_S
-        off_target = float(np.linalg.norm(pos[:2] - self.landing.target_m[:2]))
-        intrinsics, height = w.down_intrinsics, float(pos[2] - self.landing.target_m[2])
+        # the coverage is what the newest downward frame showed, from where that frame was taken
+        # (its camera's height, its optical axis's tilt, its offset from the target), not from the
+        # vehicle's pose at this tick: a frame taken lower or tilted more covers less
+        cam = pos if w.down_camera_pose is None else w.down_camera_pose[:3, 3]
+        if w.down_camera_pose is not None:  # the optical axis (camera z) from straight down
+            tilt_rad = math.acos(min(1.0, max(-1.0, -float(w.down_camera_pose[2, 2]))))
+        off_target = float(np.linalg.norm(cam[:2] - self.landing.target_m[:2]))
+        intrinsics, height = w.down_intrinsics, float(cam[2] - self.landing.target_m[2])
 
         def radius(height_m: float, tilt: float) -> float:
             return 0.0 if intrinsics is None else detection_radius_m(

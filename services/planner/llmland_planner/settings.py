@@ -99,10 +99,8 @@ class PlannerSettings(BaseSettings):
     descent_accel_mps2: float = 5.0
     descent_brake_mps2: float = 5.0
     descent_touchdown_speed_mps: float = 0.3
-    #: below this height (m) a started descent is finished rather than aborted
-    commit_height_m: float = 0.6
     touchdown_height_m: float = 0.12
-    #: climbing out: up at this speed (m/s)
+    #: climbing out (only when quicker out of reach than finishing: landing.py): up at this speed (m/s)
     climb_speed_mps: float = 1.5
     #: holding: turn toward the nearest possible person at up to this yaw rate (rad/s), else
     #: turn slowly to look all around; approaching: turn along the path at this rate

@@ -39,6 +39,12 @@ class TrackView:
     human: bool = False
 
 
+def says_person(spec: SafetySpec) -> bool:
+    """Whether a spec leaves its thing a possible person (as :func:`view_track` reads it, before the
+    motion test): a person, or a mover it cannot say is not one."""
+    return spec.is_human is True or (spec.is_dynamic and spec.is_human is not False)
+
+
 def spec_in_force(track: TrackedObstacle, t_s: float, settings: PlannerSettings) -> SafetySpec:
     """The track's spec, or the most conservative class when it has none or it no longer holds.
 
@@ -107,10 +113,9 @@ def view_track(tr: TrackedObstacle, t_s: float, method: str, settings: PlannerSe
     s, moving = settings, is_moving(tr, settings)
     if method in SEMANTIC_METHODS:
         spec = spec_in_force(tr, t_s, settings)
-        if spec.is_dynamic:  # a person, or a mover the spec cannot say is not one
-            person = spec.is_human is not False
-        else:  # a static class that moves was misread: never less careful than geometry alone
-            person = bool(spec.is_human) or moving or tr.has_moved
+        # a person, or a mover the spec cannot say is not one; a static class that moves was
+        # misread: never less careful than geometry alone
+        person = says_person(spec) or (not spec.is_dynamic and (moving or tr.has_moved))
         believed = moving and (spec.is_dynamic or person)
         return TrackView(tr, believed, spec.buffer_m, spec.z_min, spec.label, spec.is_dynamic or person, person,
                          human=spec.is_human is True and not taller_than_a_person(tr))

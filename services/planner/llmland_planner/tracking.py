@@ -151,6 +151,9 @@ class TrackedObstacle:
     rigid_path_m: dict[str, deque[FloatArray]] = field(default_factory=dict)
     #: the farthest (m) a rigid path has been from any of its earlier points (kept ones), any camera
     rigid_excursion_m: float = 0.0
+    #: ``velocity_mps`` is an estimate: two sightings at different instants (until then it reads 0,
+    #: which says nothing about how fast the thing moves)
+    velocity_known: bool = False
 
     @property
     def half_extent_m(self) -> FloatArray:
@@ -335,6 +338,7 @@ class ObstacleTracker:
         track.missed_s = 0.0
         if track.hits >= self.min_hits_for_velocity and track.track_id in self._raw_velocity:
             track.velocity_mps, track.rigid_velocity_mps = self._raw_velocity[track.track_id].copy()
+            track.velocity_known = True
 
     @staticmethod
     def _fold_top(track: TrackedObstacle, blob: Blob) -> None:

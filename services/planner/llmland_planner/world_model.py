@@ -46,6 +46,7 @@ from .track_views import (
     TrackView,
     is_moving,
     person_sized,
+    says_person,
     spec_in_force,
     view_track,
 )
@@ -96,6 +97,9 @@ class WorldModel:
         #: half the forward camera's azimuth range (rad, :func:`~.look_ahead.view_half_azimuth_rad`)
         self.forward_half_azimuth_rad: float | None = None
         self.last_down_stamp_s: float | None = None
+        #: the newest ingested downward frame's camera pose (4, 4) (``T_world_camera``): where the
+        #: coverage it shows was seen from
+        self.down_camera_pose: FloatArray | None = None
         self.specs_applied = 0
         self.spec_latencies_ms: list[float] = []
         self.version = 0  # bumps when tracks or specs change
@@ -164,11 +168,12 @@ class WorldModel:
             self.ground.commit(upto)
 
     def _take_camera(self, frame: CameraFrame) -> None:
-        """What an ingested frame tells of its camera: the downward one's intrinsics and freshness
-        (the coverage radius), the forward one's azimuth range (look before flying)."""
+        """What an ingested frame tells of its camera: the downward one's intrinsics, pose and
+        freshness (the coverage radius), the forward one's azimuth range (look before flying)."""
         if frame.header.camera == "down":
             self.down_intrinsics = frame.header.intrinsics
             self.last_down_stamp_s = frame.header.stamp
+            self.down_camera_pose = np.asarray(frame.T_world_camera, dtype=np.float64).reshape(4, 4)
         else:
             self.forward_half_azimuth_rad = view_half_azimuth_rad(frame.header.intrinsics, frame.T_world_camera)
 
@@ -203,7 +208,8 @@ class WorldModel:
         # rock): the track takes the most careful spec, never the last one in. A spec reaching a
         # track only through a big object's footprint (not its own blob) may not make a
         # person-sized track less careful than it is: a hill or a crown around someone standing
-        # there says nothing about them.
+        # there says nothing about them. Across releases a fresh person reading holds too
+        # (_holds_a_person_reading).
         batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
         for s in due:
             for track, dist in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m),
@@ -218,9 +224,23 @@ class WorldModel:
                 prev = batch.get(track.track_id)
                 batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
         for track, spec in batch.values():
+            if self._holds_a_person_reading(track, spec, t_s):
+                continue
             track.spec = AttachedSpec(spec, t_s, track.height_m)
             self.specs_applied += 1
             self.version += 1
+
+    def _holds_a_person_reading(self, track: TrackedObstacle, spec: SafetySpec, t_s: float) -> bool:
+        """Whether ``track`` keeps its spec: a fresh reading that it may be a person (not stale, not
+        the reasoner's fallback; :func:`.track_views.says_person`) is not replaced by a later spec
+        that says it is not. Within one
+        release the most careful spec wins; across releases the newest used to, so a later frame
+        that captioned only the rock beside someone, its centroid within ``spec_match_m`` of their
+        track, turned the person into a rock. The person reading holds until it goes stale
+        (``spec_stale_s``, counted from when it was given), then newer readings win again."""
+        held = track.spec
+        return (held is not None and says_person(held.spec) and held.spec.source != "fallback"
+                and not says_person(spec) and t_s - held.applied_s <= self.settings.spec_stale_s)
 
     # ------------------------------------------------------------------ views
     def spec_for(self, track: TrackedObstacle, t_s: float) -> SafetySpec:
@@ -411,6 +431,7 @@ class WorldModel:
             tr = v.track
             centre = 0.5 * (tr.lo_m[:2] + tr.hi_m[:2])
             radius = max(tr.half_diagonal_m, PERSON_BODY_RADIUS_M)
-            out.append(PersonHypothesis(tr.track_id, centre, radius, float(np.linalg.norm(tr.velocity_mps[:2])),
-                                        max(0.0, t_s - tr.last_seen_s), v.label))
+            # one sighting gives no velocity (it reads 0): unknown, i.e. at the bound, not standing
+            speed = float(np.linalg.norm(tr.velocity_mps[:2])) if tr.velocity_known else None
+            out.append(PersonHypothesis(tr.track_id, centre, radius, speed, max(0.0, t_s - tr.last_seen_s), v.label))
         return out

@@ -1,5 +1,7 @@
 """Landing phases: climb above reach, approach, hold until the gate opens, one committed descent,
-climb out when a reachable set is about to touch above the commit height, touchdown."""
+climb out when a reachable set is about to touch and that is the quicker way out of reach, touchdown."""
+
+import math
 
 import numpy as np
 import pytest
@@ -58,13 +60,15 @@ def test_hold_descend_climb_out_commit_touchdown() -> None:
     assert logic.update(ABOVE, STILL, 0.0, _around([_person(3.0)]))[0] == Phase.HOLD  # someone within reach
     assert logic.last_gate is not None and not logic.last_gate.clearance.safe
     assert logic.update(ABOVE, STILL, 0.1, _around([_person(9.0)]))[0] == Phase.DESCEND
-    # a runner (faster than assumed) appears close while the vehicle is still high: climb out
-    phase, goal = logic.update(np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -2.5]), 0.6,
+    # a runner (faster than assumed) appears close while the vehicle is just inside reach: climb out
+    phase, goal = logic.update(np.array([0.0, 0.0, 2.9]), np.array([0.0, 0.0, -1.5]), 0.3,
                                _around([_person(2.5, speed=3.0)]))
     assert phase == Phase.CLIMB_OUT and goal[2] == pytest.approx(S.cruise_altitude_m)
-    logic.phase = Phase.DESCEND  # below the commit height finishing is the way out of reach
-    low = np.array([0.0, 0.0, 0.5])
-    assert logic.update(low, np.array([0.0, 0.0, -0.8]), 1.0, _around([_person(2.5, speed=3.0)]))[0] == Phase.DESCEND
+    logic.phase = Phase.DESCEND  # lower down, finishing is the quicker way out of reach
+    for height, sink in ((2.0, 2.5), (0.5, 0.8)):
+        phase, goal = logic.update(np.array([0.0, 0.0, height]), np.array([0.0, 0.0, -sink]), 1.0,
+                                   _around([_person(2.5, speed=3.0)]))
+        assert phase == Phase.DESCEND and np.allclose(goal, TARGET)
     assert logic.update(np.array([0.0, 0.0, 0.1]), STILL, 1.2, _around())[0] == Phase.TOUCHDOWN
 
 
@@ -233,3 +237,89 @@ def test_the_hold_is_the_lowest_height_the_untracked_bound_passes_from() -> None
     # hold heights: the approach over the buffer, the hold from there
     around = Surroundings([_buffered(5.0)], [], 0.0, lambda _d: [], coverage_at=narrow_low)
     assert logic._hold_heights(around) == (pytest.approx(5.5), pytest.approx(3.9))
+
+
+def _closest_axis_distance(start_height_m: float, seen_at_m: float) -> float:
+    """A person the downward camera missed (an assumption failure: what the per-tick check is for) is
+    found ``seen_at_m`` from the pad walking straight at it at 1.6 m/s when the descending vehicle is
+    at ``start_height_m`` on its profile; the vehicle does what :meth:`LandingLogic.update` says
+    (climbing out: braking at the profile's deceleration, then up at the climb speed). Returns the
+    closest distance (m) between the vehicle and the 2 m tall person's body axis before the vehicle
+    is out of reach or touchdown is complete (the dwell)."""
+    logic = LandingLogic(TARGET, S)
+    logic.climbed, logic.phase, logic.commit_coverage_m = True, Phase.DESCEND, 6.0
+    heights, sinks = logic.profile.reference(S.cruise_altitude_m, 0.0, 0.001, 6000)
+    k = int(np.argmax(heights <= start_height_m))
+    h, v, x, dt, t, closest = float(heights[k]), float(sinks[k]), seen_at_m, 0.005, 0.0, np.inf
+    climbing, landed_at = False, None
+    while t < 5.0:
+        if not climbing and landed_at is None:
+            person = PersonHypothesis("p", np.array([x, 0.0]), 0.3, 1.6, 0.0, "person")
+            phase, _ = logic.update(np.array([0.0, 0.0, h]), np.array([0.0, 0.0, -v]), t, _around([person]))
+            climbing = phase == Phase.CLIMB_OUT
+            if phase == Phase.TOUCHDOWN:
+                landed_at = t
+        if landed_at is not None:
+            if t > landed_at + S.touchdown_dwell_s:
+                break
+        elif climbing:
+            v = max(v - S.descent_brake_mps2 * dt, -S.climb_speed_mps)
+            h -= v * dt
+            if h > REACH_CEILING_M:
+                break
+        else:
+            nh, nv = logic.profile.reference(h, v, dt, 2)
+            h, v = float(nh[1]), float(nv[1])
+        x = max(0.0, x - 1.6 * dt)
+        closest = min(closest, float(np.hypot(x, max(0.0, h - 2.0))))
+        t += dt
+    return closest
+
+
+@pytest.mark.parametrize(("start_height_m", "seen_at_m"), [(1.0, 2.3), (1.4, 2.6), (1.8, 3.0)])
+def test_a_late_detection_low_in_the_descent_is_left_by_finishing_not_by_a_slower_climb(
+        start_height_m: float, seen_at_m: float) -> None:
+    """Sinking at 2–3 m/s the vehicle needs ≈ 0.5 m to stop, then climbs at 1.5 m/s: from mid-reach a
+    climb-out keeps it in reach longer than finishing. The old rule (climb out above 0.6 m) let these
+    walkers come 0.10–0.59 m from the vehicle's axis; finishing keeps them past 1 m."""
+    assert _closest_axis_distance(start_height_m, seen_at_m) > 1.0
+
+
+def _margin_with_person_at(x: float, offset_m: float = 0.0) -> float:
+    logic = LandingLogic(TARGET, S)
+    around = _around([_person(x)], coverage_m=50.0)
+    return logic.gate(S.cruise_altitude_m, 0.0, around, offset_m=offset_m).clearance.margin_m
+
+
+def test_the_gate_counts_the_vehicles_offset_from_the_target() -> None:
+    """The hold counts as arrived up to ``align_radius_m`` (0.35 m) off the target, wider than the
+    landing point's error the bound allowed (0.25 m): the offset is added to it."""
+    assert S.align_radius_m > S.landing_xy_margin_m
+    base = _margin_with_person_at(8.0)
+    assert _margin_with_person_at(8.0, offset_m=0.34) == pytest.approx(base - 0.34)
+    # a person at the very edge: open on the target, shut 0.34 m off it
+    edge = 8.0 - base + 0.005
+    assert _margin_with_person_at(edge) > 0.0 > _margin_with_person_at(edge, offset_m=0.34)
+
+
+def test_without_the_coverage_assumption_every_possible_person_counts() -> None:
+    """``require_coverage`` off (no downward camera to lean on) claimed infinite coverage, which also
+    left every track older than ``recent_observation_s`` to an untracked bound that no longer
+    existed: a person 1.5 m from the pad last seen 0.6 s ago opened the gate."""
+    old = _person(1.5, age=0.6)
+    assert old.age_s > S.recent_observation_s
+    for require in (True, False):
+        logic = LandingLogic(TARGET, PlannerSettings(require_coverage=require))
+        gate = logic.gate(S.cruise_altitude_m, 0.0, _around([old], coverage_m=6.0))
+        assert not gate.clearance.safe and gate.clearance.track_id == "p"
+
+
+def test_nan_inputs_keep_the_gate_shut() -> None:
+    """A NaN compares false: it used to pass for zero reach (``max(0, nan)`` is 0) or skip a person."""
+    logic = LandingLogic(TARGET, S)
+    assert logic.bounds.reach_m(float("nan")) == math.inf
+    lost = PersonHypothesis("p", np.array([np.nan, 0.0]), 0.3, 0.0, 0.0)
+    assert not logic.gate(S.cruise_altitude_m, 0.0, _around([lost], coverage_m=50.0)).clearance.safe
+    assert not logic.gate(S.cruise_altitude_m, 0.0, _around([_person(9.0, speed=math.nan, age=math.nan)],
+                                                           coverage_m=50.0)).clearance.safe
+    assert not logic.gate(S.cruise_altitude_m, 0.0, _around(coverage_m=math.nan)).clearance.safe

@@ -327,3 +327,31 @@ def test_the_vertical_reference_goes_straight_to_the_hold_height_up_or_down(star
     assert np.all(np.abs(steps) <= s.climb_speed_mps * s.mpc_dt_s + 1e-9)
     assert ref_pos[-1, 2] == pytest.approx(goal_z) and ref_vel[-1, 2] == 0.0
     assert np.all(np.abs(ref_vel[:, 2]) <= s.climb_speed_mps)
+
+
+def test_the_coverage_radius_is_the_downward_frames_not_the_ticks():
+    """The untracked-people bound rests on what the newest downward frame showed: a frame taken
+    0.5 m lower and tilted 0.15 rad covers less than the level hover at the tick would, and the gate
+    must get that smaller radius (less the frame's offset from the target)."""
+    from llmland_planner.coverage import detection_radius_m
+    from llmland_schemas import CameraIntrinsics
+
+    s = PlannerSettings()
+    pl = Planner(s)
+    pl.start(MissionGoal(episode_id="e", method="llm-land", start_m=(0, -9, 3.5), target_m=(0, 0, 0)))
+    assert pl.world is not None
+    f = 192.0 / math.tan(math.radians(70.0))
+    intrinsics = CameraIntrinsics(fx=f, fy=f, cx=192.0, cy=192.0, width=384, height=384)
+    tilt = 0.15
+    pose = np.eye(4)  # optical axis tilted 0.15 rad from straight down, about the x axis
+    c, sn = math.cos(tilt), math.sin(tilt)
+    pose[:3, :3] = np.array([[1.0, 0.0, 0.0], [0.0, -c, sn], [0.0, -sn, -c]])
+    pose[:3, 3] = [0.1, 0.0, 3.0]
+    pl.world.down_intrinsics, pl.world.last_down_stamp_s, pl.world.down_camera_pose = intrinsics, 1.0, pose
+    around = pl._surroundings(1.1, np.array([0.0, 0.0, 3.5]), 0.0)
+    framed = detection_radius_m(intrinsics, 3.0, tilt, stride=s.down_blob_stride, min_points=s.down_blob_min_points,
+                                torso=s.coverage_torso) - 0.1
+    level = detection_radius_m(intrinsics, 3.5, 0.0, stride=s.down_blob_stride, min_points=s.down_blob_min_points,
+                               torso=s.coverage_torso)
+    assert around.coverage_m == pytest.approx(framed)
+    assert framed < level

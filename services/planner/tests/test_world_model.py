@@ -156,7 +156,8 @@ def test_a_person_who_walked_then_stopped_stays_a_possible_person_for_the_baseli
         wm.ingest(t)
         t += 0.5
     people = wm.people(t - 0.5)
-    assert len(people) == 1 and people[0].speed_mps < s.moving_speed_mps
+    speed = people[0].speed_mps
+    assert len(people) == 1 and speed is not None and speed < s.moving_speed_mps
     # then hidden (under a tree, missed): still a possible person, with the age of the last sighting
     lost = wm.people(t + 1.0)
     assert len(lost) == 1 and lost[0].age_s == pytest.approx(1.5)
@@ -495,3 +496,60 @@ def test_a_start_inside_the_box_guessed_above_a_cut_view_has_a_way_out(x: float,
     for i in range(len(path) - 1):  # followed from the start to the goal, it never reads as blocked
         rp.active.progress_idx = i
         assert not rp.path_blocked(rp.active, regions)
+
+
+def test_a_person_seen_once_has_an_unknown_speed_not_a_standing_one():
+    """One sighting gives no velocity (the track's reads 0): the gate must take the person as already
+    walking at the bound, not as standing (a standing start adds only a first step and an
+    acceleration, so a walker first seen at 1.6 m/s was allowed half a metre too close)."""
+    wm = WorldModel(PlannerSettings(), "llm-land")  # no spec yet: the most careful class, a possible person
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0, source="down")  # a second camera, the same instant
+    assert [p.speed_mps for p in wm.people(0.0)] == [None]
+    wm.tracker.update([_blob(5.1, 0.0)], 0.2)
+    speed = wm.people(0.2)[0].speed_mps
+    assert speed is not None and speed > 0.0
+
+
+def test_the_coverage_is_taken_from_where_the_downward_frame_was_seen():
+    """The coverage radius stands on the newest downward frame: it is computed from that frame's
+    camera pose (height, tilt, offset), not from the vehicle's pose at the tick."""
+    from llmland_schemas import CameraFrameHeader, CameraIntrinsics
+    from llmland_schemas.frames import CameraFrame
+
+    wm = WorldModel(PlannerSettings(), "llm-land", np.zeros(3))
+    pose = np.eye(4)
+    pose[:3, :3] = np.diag([1.0, -1.0, -1.0])  # optical axis straight down
+    pose[:3, 3] = [0.2, 0.0, 3.4]
+    header = CameraFrameHeader(stamp=0.2, seq=1, width=8, height=6, camera="down",
+                               intrinsics=CameraIntrinsics(fx=4, fy=4, cx=4, cy=3, width=8, height=6),
+                               T_world_camera=list(pose.reshape(-1)), depth_encoding="32FC1")
+    wm.on_frame(CameraFrame(header=header, rgb=np.zeros((6, 8, 3), np.uint8),
+                            depth_m=np.full((6, 8), np.inf, np.float32)))
+    assert wm.down_camera_pose is None
+    wm.ingest(0.3)
+    assert wm.down_camera_pose is not None and np.allclose(wm.down_camera_pose, pose)
+
+
+def test_a_later_spec_of_the_rock_beside_someone_does_not_undo_their_person_reading():
+    """Within one release the most careful spec wins; across releases the newest did: a later frame
+    that captioned only the rock beside a standing person (its centroid within ``spec_match_m`` of
+    their track) turned the person into a rock, and the gate lost them. The person reading holds
+    until it goes stale; then newer readings win again."""
+    s = PlannerSettings()
+    wm = WorldModel(s, "llm-land")
+    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    wm.on_spec(_person_spec(0.0, 0.0))
+    assert len(_regions(wm, 0.0)) == 1 and wm.people(0.0)[0].label == "person"
+    rock = SafetySpec(is_dynamic=False, is_human=False, z_min=0.0, buffer_m=0.5, label="rock", source="rag")
+    rock_only = SafetySpecMessage(stamp=1.0, scene=rock, latency_ms=0.0, objects=[
+        ObjectSpec(obj_id="r0", centroid_m=(5.4, 0.0, 0.25), size_m=(0.6, 0.6, 0.5), spec=rock)])
+    wm.tracker.update([_blob(5.0, 0.0)], 1.0)
+    wm.on_spec(rock_only)
+    wm.release_specs(1.0)
+    assert [p.label for p in wm.people(1.0)] == ["person"]
+    late = s.spec_stale_s + 1.0  # the person reading has gone stale: a newer reading wins
+    wm.tracker.update([_blob(5.0, 0.0)], late)
+    wm.on_spec(rock_only.model_copy(update={"stamp": late}))
+    wm.release_specs(late)
+    assert wm.people(late) == []
