@@ -40,6 +40,7 @@ from llmland_schemas.bus import Bus
 
 from .engine import ReasonerEngine
 from .fleet import FairSceneQueue, Pending
+from .upload import CaptionRefusedError
 
 log = logging.getLogger(__name__)
 
@@ -208,9 +209,10 @@ class ReasonerBusService:
         text = raw.decode("utf-8", errors="replace").strip()
         if text.startswith("{"):
             try:
-                text = str(json.loads(text).get("caption", ""))
-            except (ValueError, AttributeError):
-                text = ""
+                caption = json.loads(text).get("caption", "")
+            except (ValueError, AttributeError, RecursionError):
+                caption = ""
+            text = caption if isinstance(caption, str) else ""  # null or an object is no caption
         if not text:
             query.reply_err(b"send a caption as UTF-8 text or {\"caption\": \"...\"}")
             return
@@ -231,14 +233,18 @@ def caption_via_vle(bus: Bus, timeout_s: float = 10.0):  # type: ignore[no-untyp
     """A function image bytes → Caption | None, asking the VLE queryable over Zenoh."""
 
     def caption(image: bytes) -> Caption | None:
+        refused: str | None = None
         for reply in bus.session.get(VLE_CAPTION_QUERY, payload=image, timeout=timeout_s):
             if reply.ok is None:
-                log.warning("VLE replied with an error: %s", reply.err.payload.to_bytes()[:200] if reply.err else "")
+                refused = reply.err.payload.to_bytes()[:500].decode("utf-8", "replace") if reply.err else "error"
+                log.warning("VLE replied with an error: %s", refused)
                 continue
             try:
                 return decode(Caption, reply.ok.payload.to_bytes())
             except MessageError as exc:
                 log.warning("bad caption reply: %s", exc)
+        if refused is not None:
+            raise CaptionRefusedError(refused)
         return None
 
     return caption

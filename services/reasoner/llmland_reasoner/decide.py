@@ -32,6 +32,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 
+from . import deadline
 from .grounding import NameIndex
 from .kb import KnowledgeBase
 from .lexicon import WordNet
@@ -119,6 +120,7 @@ class LlmDecider:
             if not g.alternatives:
                 out.append(None)
                 continue
+            deadline.check()  # one LLM scoring per ambiguous mention: stop once the caller gave up
             margins = self.margins(caption, g)
             k = int(np.argmax(margins))
             chosen = g.alternatives[k] if margins[k] > self.margin_nats else None

@@ -21,16 +21,17 @@ import logging
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 from llmland_schemas.messages import Evidence, SafetySpec
 
 from .batch import run_many
+from .deadline import deadline_at
 from .decide import Decider, LlmDecider
 from .kb import KbEntry
 from .pipeline import Outcome, normalize_caption, run_llm, run_retrieval
@@ -39,6 +40,9 @@ from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
 log = logging.getLogger(__name__)
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
 
 #: what :meth:`SpecExtractor.warm_up` asks about
 WARM_UP_CAPTION = "a person standing on a grass field"
@@ -96,7 +100,9 @@ class SpecExtractor:
                 return replace(hit, spec=spec, cached=True)
             if not key[0]:
                 raise ValueError("empty caption")
-            future = self._worker.submit(self._compute, key, caption)
+            if (too_long := self._too_long(key[0])) is not None:
+                return self._fallback(caption, started, too_long)
+            future = self._worker.submit(self._under_deadline(self._compute), key, caption)
             return future.result(timeout=self.settings.timeout_s)
         except FutureTimeout:
             return self._fallback(caption, started, f"timeout after {self.settings.timeout_s} s")
@@ -122,13 +128,16 @@ class SpecExtractor:
                                  cached=True)
             elif not key[0]:
                 out[i] = self._fallback(caption, started, "ValueError: empty caption")
+            elif (too_long := self._too_long(key[0])) is not None:
+                out[i] = self._fallback(caption, started, too_long)
             else:
                 todo.setdefault(key, []).append(i)
         if todo:
             keys = list(todo)
             first = [str(captions[todo[k][0]]) for k in keys]
             try:
-                done = self._worker.submit(self._compute_many, keys, first).result(timeout=self.settings.timeout_s)
+                done = self._worker.submit(self._under_deadline(self._compute_many), keys, first).result(
+                    timeout=self.settings.timeout_s)
             except FutureTimeout:
                 done = [self._fallback(c, started, f"timeout after {self.settings.timeout_s} s") for c in first]
             except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
@@ -180,6 +189,24 @@ class SpecExtractor:
         self._worker.shutdown(wait=True, cancel_futures=True)
 
     # ---------------------------------------------------------------- internal
+    def _too_long(self, normalized: str) -> str | None:
+        """Why a caption is refused before any work (its cost grows with its length), or None."""
+        words = len(normalized.split())
+        limit = self.settings.max_caption_words
+        return None if words <= limit else f"caption of {words} words is longer than max_caption_words ({limit})"
+
+    def _under_deadline(self, job: Callable[_P, _R]) -> Callable[_P, _R]:
+        """``job`` run on the worker under the caller's deadline (:mod:`.deadline`): taken now,
+        when the caller starts waiting ``timeout_s``, so work the caller no longer waits for stops
+        at the next check instead of holding the worker for everyone else."""
+        at = time.monotonic() + self.settings.timeout_s
+
+        def run(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+            with deadline_at(at):
+                return job(*args, **kwargs)
+
+        return run
+
     def _compute(self, key: CacheKey, caption: str) -> Extraction:
         started = time.perf_counter()
         try:

@@ -22,15 +22,17 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from llmland_schemas import Caption, SafetySpec
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from starlette.concurrency import run_in_threadpool
 
 from .engine import ReasonerEngine
 from .kb import KbEntry
 from .settings import Mode, ReasonerSettings
-from .upload import check_image, json_body_problem
+from .upload import CaptionRefusedError, check_image, json_body_problem
 
 log = logging.getLogger(__name__)
 
-#: image bytes → caption, or None when no captioning service answered
+#: image bytes → the VLE's caption, None when no VLE answered; raises
+#: :class:`~.upload.CaptionRefusedError` when the VLE answered that it cannot caption the image
 CaptionFn = Callable[[bytes], Caption | None]
 #: Routes whose body is JSON: checked for UTF-8, JSON and lone surrogates before FastAPI parses it.
 JSON_ROUTES = frozenset({"/v1/reason", "/v1/kb"})
@@ -117,8 +119,11 @@ def _bearer_auth(settings: ReasonerSettings) -> Callable[..., None]:
     def auth(authorization: Annotated[str | None, Header()] = None) -> None:
         if token is None:
             return
-        given = (authorization or "").removeprefix("Bearer ").strip()
-        if not secrets.compare_digest(given, token):
+        scheme, _, given = (authorization or "").strip().partition(" ")
+        # header values arrive as latin-1 text: compare their bytes (compare_digest refuses non-ASCII
+        # str), with the scheme case-insensitive (RFC 7235 §2.1)
+        if scheme.lower() != "bearer" or not secrets.compare_digest(
+                given.strip().encode("latin-1", "replace"), token.encode("utf-8")):
             raise HTTPException(401, "missing or wrong API token (Authorization: Bearer <token>)")
 
     return auth
@@ -141,8 +146,16 @@ def _add_spec_routes(app: FastAPI, engine: ReasonerEngine, caption_fn: CaptionFn
               responses={503: {"description": "no captioning (VLE) service answered"}})
     async def spec(image: Annotated[UploadFile, File(description="PNG or JPEG")]) -> SafetySpec:
         data = await image.read(settings.max_upload_bytes + 1)
+        # decoding, the VLE query (up to its timeout) and the extraction block: off the event loop,
+        # or one slow caption holds every other request, /healthz included
+        return await run_in_threadpool(_spec_of, data)
+
+    def _spec_of(data: bytes) -> SafetySpec:
         check_image(data, settings.max_upload_bytes)
-        caption = caption_fn(data)
+        try:
+            caption = caption_fn(data)
+        except CaptionRefusedError as exc:
+            raise HTTPException(422, f"the VLE cannot caption this image: {exc}") from None
         if caption is None:
             raise HTTPException(503, "no VLE service answered on llmland/@ground/vle/caption: start llmland-vle")
         result = engine.extract(caption.text)
@@ -158,7 +171,14 @@ def _add_kb_routes(app: FastAPI, engine: ReasonerEngine, guarded: list[Any]) -> 
     @app.post("/v1/kb", response_model=KbEntry, status_code=201, dependencies=guarded, tags=["kb"])
     def add_kb(entry: dict[str, Any]) -> KbEntry:
         try:
-            return engine.add_entry(KbEntry.model_validate(entry))
+            new = KbEntry.model_validate(entry)
+            if new.id in {e.id for e in engine.resources.kb.entries}:
+                # a write that replaced an entry could turn "pedestrian" into a bench: the category
+                # rules check the entry, not what it replaces. Changing a shipped entry is an edit
+                # of the KB file, reviewed like code.
+                raise HTTPException(409, f"KB entry {new.id!r} exists; the API adds entries, it does not "
+                                         "replace them (edit the KB file to change one)")
+            return engine.add_entry(new)
         except ValidationError as exc:
             reasons = "; ".join(f"{'.'.join(str(x) for x in e.get('loc', ())) or 'entry'}: {e.get('msg', '')}"
                                 for e in exc.errors(include_url=False))

@@ -42,6 +42,8 @@ DETERMINERS = frozenset(
     "dozens lots lot numerous various one another each every other".split()
 )
 #: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
+#: words after which a new noun phrase starts
+NOUN_PHRASE_CONJUNCTIONS = frozenset({"and", "or", "nor"})
 FUNCTION_WORDS = frozenset(
     "a an the of on in at to by with and or nor is are was were be been being there here that this these those "
     "its it his her their them they he she we you i my our your some near next over under behind along across "
@@ -201,7 +203,10 @@ class MentionFinder:
             return False
         if word.endswith(("ing", "ed", "ly")) or self.wordnet.is_known(word):
             return False
-        return i > 0 and words[i - 1] in DETERMINERS
+        # a noun phrase starts there: the caption's start ("Quokka sitting in a parking lot"), after
+        # a determiner ("a quokka") or a conjunction ("a road and quokkas"); elsewhere an unknown
+        # word is more likely a modifier or a misspelling of the head that follows
+        return i == 0 or words[i - 1] in DETERMINERS or words[i - 1] in NOUN_PHRASE_CONJUNCTIONS
 
     # ------------------------------------------------------------------ mentions
     def find(self, caption: str) -> list[Found]:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import logging
 from dataclasses import replace
 
-from . import prompts
+from . import deadline, prompts
 from .decide import Decider, LlmDecider, RetrievalDecider
 from .grounding import ground
 from .kb import KbEntry
@@ -87,6 +87,7 @@ def unanimous_answer(caption: str, hits: list[tuple[KbEntry, float]], res: Resou
     n = len(content_positions(caption_words(caption)))
     first: Outcome | None = None
     for k in range(n):
+        deadline.check()  # one full finish per content word: stop once the caller gave up
         one_hot = [_NOT_POINTED] * n
         one_hot[k] = 0.0
         out = finish_rag(caption, hits, one_hot, res, "llm", True, None, found, asked=False)

@@ -47,8 +47,12 @@ class ReasonerSettings(BaseSettings):
     temperature: float = Field(default=0.0, ge=0.0, le=0.5)
     #: the paper: at most 20 new tokens
     max_new_tokens: int = Field(default=20, ge=4, le=20)
-    #: a spec not produced within this time is answered with the conservative fallback
+    #: a spec not produced within this time is answered with the conservative fallback (and the
+    #: work on it stops at its next step: deadline.py)
     timeout_s: float = Field(default=5.0, gt=0.0, le=120.0)
+    #: a caption of more words is answered with the conservative fallback at once: its cost grows
+    #: with its length (captioners write one sentence; the HTTP API takes 1000 characters)
+    max_caption_words: int = Field(default=100, ge=1, le=10_000)
     #: retrieval depth (the paper: top 3)
     top_k: int = Field(default=3, ge=1, le=10)
     #: put the retrieved labels into the rag prompt (the paper's layout); off by default because

@@ -15,7 +15,7 @@ import json
 import struct
 
 from fastapi import HTTPException
-from PIL import Image, UnidentifiedImageError
+from PIL import Image
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 JPEG_MAGIC = b"\xff\xd8\xff"
@@ -61,6 +61,11 @@ def _jpeg_size(data: bytes) -> tuple[int, int] | None:
     return None
 
 
+class CaptionRefusedError(ValueError):
+    """The VLE answered that it cannot caption an image (too small, not decodable): the upload's
+    fault (a 4xx with the VLE's message), not a missing VLE (503)."""
+
+
 def check_image(data: bytes, max_bytes: int, max_pixels: int = MAX_PIXELS) -> None:
     """Raise the right 4xx for an upload that is empty, too big, not PNG/JPEG or corrupt."""
     if not data:
@@ -81,8 +86,9 @@ def check_image(data: bytes, max_bytes: int, max_pixels: int = MAX_PIXELS) -> No
         raise
     except Image.DecompressionBombError as exc:
         raise HTTPException(413, f"image too large: {exc}") from None
-    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, struct.error, EOFError) as exc:
-        raise HTTPException(400, f"corrupt image: {exc}") from None
+    except Exception as exc:  # noqa: BLE001 - a corrupt file raises whatever the decoder meets
+        # (IndexError for a PNG without image data, struct.error, EOFError, …): all are the upload's fault
+        raise HTTPException(400, f"corrupt image: {type(exc).__name__}: {exc}") from None
 
 
 def json_body_problem(body: bytes) -> str | None:
@@ -93,7 +99,7 @@ def json_body_problem(body: bytes) -> str | None:
         return f"the body is not UTF-8 text (byte {exc.start})"
     try:
         value = json.loads(text)
-    except (json.JSONDecodeError, RecursionError) as exc:
+    except (ValueError, RecursionError) as exc:  # ValueError: also an integer of > 4300 digits
         return f"the body is not valid JSON: {exc}"
     try:
         json.dumps(value, ensure_ascii=False).encode("utf-8")

@@ -154,6 +154,52 @@ def test_timeout_falls_back_and_the_late_answer_is_cached(resources: Resources) 
     extractor.close()
 
 
+class SleepyBackend(BrokenBackend):
+    """Scores every continuation alike, each call taking ``step_s`` (a slow LLM); counts the calls."""
+
+    name = "sleepy"
+
+    def __init__(self, step_s: float) -> None:
+        self.step_s, self.calls = step_s, 0
+
+    def score(
+        self, prefix: str, suffix: str, continuations: Sequence[str], first_token_only: bool = False
+    ) -> list[float]:
+        self.calls += 1
+        time.sleep(self.step_s)
+        return [-1.0] * len(continuations)
+
+
+def test_work_the_caller_stopped_waiting_for_stops_and_frees_the_worker(resources: Resources) -> None:
+    """A long ambiguous caption (every "crane", "seal", "cab", "kite" scored by the LLM) ran on after
+    its caller's timeout and held the one worker for minutes: every drone's next caption fell back.
+    Now the work stops at its next step once the caller has stopped waiting."""
+    settings = resources.settings.model_copy(update={"timeout_s": 0.5, "rag_pointer": "llm"})
+    sleepy = SleepyBackend(step_s=0.1)
+    extractor = SpecExtractor("rag", settings=settings, resources=replace(resources, backend=sleepy))
+    long_caption = " ".join(["a crane, a seal, a cab and a kite"] * 10)  # 90 words, 40 ambiguous mentions
+    first = extractor.extract_detailed(long_caption)
+    assert first.spec.source == "fallback" and "timeout" in first.error
+    started = time.monotonic()
+    extractor.extract_detailed("a person waiting at a bus stop")
+    assert time.monotonic() - started < 1.5, "the next caption waited behind the abandoned one"
+    calls = sleepy.calls
+    time.sleep(0.5)
+    assert sleepy.calls == calls  # nothing is still scoring the abandoned caption
+    extractor.close()
+
+
+def test_a_caption_longer_than_the_limit_falls_back_at_once(resources: Resources) -> None:
+    settings = resources.settings.model_copy(update={"max_caption_words": 10})
+    extractor = SpecExtractor("rag", settings=settings, resources=resources)
+    started = time.monotonic()
+    for result in (extractor.extract_detailed("a person " * 6), *extractor.extract_many(["a dog " * 6])):
+        assert result.spec.source == "fallback" and "max_caption_words" in result.error
+    assert time.monotonic() - started < 0.5
+    assert extractor.extract("a person walking on a road").source == "rag"
+    extractor.close()
+
+
 @pytest.mark.parametrize("caption", ["", "   ", "...", None, 42])
 def test_bad_captions_never_raise(rag: SpecExtractor, caption: object) -> None:
     spec = rag.extract(caption)  # type: ignore[arg-type]

@@ -242,6 +242,71 @@ def test_api_token(engine: ReasonerEngine) -> None:
         assert httpx.get(f"{url}/v1/kb", headers={"Authorization": "Bearer s3cret"}).status_code == 200
 
 
+def _png_without_image_data() -> bytes:
+    """A PNG with its header and end chunks but no IDAT: Pillow's verify() raised IndexError (a 500)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", 4, 4, 8, 2, 0, 0, 0)) + chunk(b"IEND", b"")
+
+
+def test_inputs_that_were_500s_are_4xx(base_url: str, engine: ReasonerEngine) -> None:
+    r = httpx.post(f"{base_url}/v1/spec", files={"image": ("x.png", _png_without_image_data(), "image/png")})
+    assert r.status_code == 400 and "corrupt image" in r.json()["detail"], r.text
+    big = b'{"caption": "a dog", "mode": ' + b"9" * 5000 + b"}"  # past Python's 4300-digit int limit
+    for route in ("/v1/reason", "/v1/kb"):
+        r = httpx.post(f"{base_url}{route}", content=big, headers={"content-type": "application/json"})
+        assert r.status_code == 422 and "not valid JSON" in r.json()["detail"], r.text
+    s = engine.settings.model_copy(update={"api_token": SecretStr("s3cret")})
+    with _Server(create_app(engine, lambda _img: CAPTION, s)) as url:
+        for header in (b"Bearer caf\xe9", b"Bearer \xff\xfe"):
+            assert httpx.get(f"{url}/v1/kb", headers={b"Authorization": header}).status_code == 401
+        assert httpx.get(f"{url}/v1/kb", headers={"Authorization": "bearer s3cret"}).status_code == 200
+
+
+def test_an_image_the_vle_refuses_is_422_with_its_message(engine: ReasonerEngine, tmp_path: Path) -> None:
+    from llmland_reasoner.upload import CaptionRefusedError
+
+    def refuse(_img: bytes) -> Caption | None:
+        raise CaptionRefusedError("image of 1x1 px is outside 8..4096 px a side")
+
+    with _Server(create_app(engine, refuse, engine.settings)) as url:
+        r = httpx.post(f"{url}/v1/spec", files={"image": ("a.png", _png(tmp_path, size=1), "image/png")})
+    assert r.status_code == 422 and "1x1 px" in r.json()["detail"], r.text
+
+
+def test_a_slow_vle_does_not_hold_other_requests(engine: ReasonerEngine, tmp_path: Path) -> None:
+    """/v1/spec waited on the VLE on the event loop: /healthz took as long as the VLE's timeout."""
+    release = threading.Event()
+
+    def slow(_img: bytes) -> Caption | None:
+        release.wait(10.0)
+        return CAPTION
+
+    with _Server(create_app(engine, slow, engine.settings)) as url:
+        png = _png(tmp_path)
+        pending = threading.Thread(target=lambda: httpx.post(f"{url}/v1/spec", timeout=20,
+                                                             files={"image": ("a.png", png, "image/png")}))
+        pending.start()
+        time.sleep(0.3)
+        started = time.monotonic()
+        assert httpx.get(f"{url}/healthz", timeout=20).status_code == 200
+        waited = time.monotonic() - started
+        release.set()
+        pending.join(20)
+    assert waited < 2.0
+
+
+def test_the_api_does_not_replace_an_existing_kb_entry(base_url: str) -> None:
+    """A write replacing "pedestrian" with a bench passed every category rule and removed the person."""
+    kb = httpx.get(f"{base_url}/v1/kb").json()
+    person = next(e for e in kb["entries"] if e["is_human"])
+    bench = dict(person, label="bench", category="structure", is_dynamic=False, is_human=False, buffer_m=1.0)
+    r = httpx.post(f"{base_url}/v1/kb", json=bench)
+    assert r.status_code == 409 and "exists" in r.json()["detail"], r.text
+    assert httpx.get(f"{base_url}/v1/kb").json()["version"] == kb["version"]
+
+
 def _operation(result: Ok[APIOperation[Any, Any, Any, Any]] | Err[InvalidSchema]) -> APIOperation[Any, Any, Any, Any]:
     """The operation a schema result holds; an invalid one fails the test with its error."""
     if isinstance(result, Err):

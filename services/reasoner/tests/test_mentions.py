@@ -39,6 +39,10 @@ def present(found: list[Found]) -> dict[str, str]:
     ("a giraffe", {"giraffe": "animal"}),
     ("a skier on a snowy slope", {"skier": "person", "slope": "terrain"}),
     ("a quokka on a rock", {"quokka": "unknown", "rock": "terrain"}),
+    # ... where a noun phrase starts without a determiner too: the caption's start, after "and"
+    ("quokka on a rock", {"quokka": "unknown", "rock": "terrain"}),
+    ("Quokkas sitting on a rock", {"quokkas": "unknown", "rock": "terrain"}),
+    ("a rock and quokka", {"rock": "terrain", "quokka": "unknown"}),
     # qualifiers and verbs are not things; captioner artefacts are not things
     ("arafed man standing in a field", {"man": "person", "field": "terrain"}),
     ("a tennis player swings his racket at a ball",
