@@ -19,6 +19,18 @@ from llmland_schemas.bus import DEFAULT_ENDPOINT
 from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
 from llmland_schemas.service import configure_logging, shutdown_event
 
+from .arguments import (
+    existing_file,
+    latency_model,
+    names_from,
+    non_negative_int,
+    port,
+    positive_int,
+    positive_seconds,
+    seed_list,
+    writable_dir,
+    writable_file,
+)
 from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint, raise_keyboard_interrupt
 from .results import summarize
 from .stacks import StackConfig, make_mission, open_stack
@@ -27,6 +39,7 @@ from .view import add_view_parser
 log = logging.getLogger("llmland")
 
 WORLDS = list(WORLD_NAMES)
+LOG_LEVELS = ["DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL"]
 METHODS = list(METHOD_NAMES)
 #: how often `llmland up` logs the reasoner's specs per drone (s), when they changed
 SERVED_LOG_PERIOD_S = 30.0
@@ -71,14 +84,6 @@ def cmd_land(args: argparse.Namespace) -> int:
     return 0 if result.success or not args.strict else 1
 
 
-def _parse_seeds(text: str) -> list[int]:
-    seeds: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        seeds += list(range(int(lo), int(hi or lo) + 1))
-    return seeds
-
-
 def cmd_trials(args: argparse.Namespace) -> int:
     """Many seeds on one running stack; a CSV row per episode as it ends (the columns of
     ``llmland experiment``'s trials.csv) and a summary."""
@@ -92,7 +97,7 @@ def cmd_trials(args: argparse.Namespace) -> int:
     rows = []
     cfg = _config(args)
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
-        for seed in _parse_seeds(args.seeds):
+        for seed in args.seeds:
             r = running.runner.run(_mission(args, cfg, seed))
             rows.append(r)
             append_row(csv_path, trial_row(Trial(args.world, args.method, seed, latency_model=args.latency_model),
@@ -218,12 +223,13 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
                    help="llm-land (RAG, the default), llm (no retrieval), baseline (geometry, 1 m margin), "
                         "conservative (geometry, every obstacle a person), reference (no obstacles)")
     p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
-    p.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
-    p.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the world's)")
+    p.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
+    p.add_argument("--pedestrians", type=non_negative_int, default=None,
+                   help="number of pedestrians (default: the world's)")
     p.add_argument("--specs", choices=["pipeline", "oracle", "none"], default="pipeline",
                    help="semantic methods: where specs come from — pipeline (VLE captions → reasoner), "
                         "oracle (given from ground truth), none")
-    p.add_argument("--latency-model", default=None,
+    p.add_argument("--latency-model", type=latency_model, default=None,
                    help="lockstep: when specs take effect — measured (default for the pipeline), fixed:<ms>, "
                         "normal:<mean_ms>,<sd_ms> (fixed:50 for oracle specs)")
     p.add_argument("--llm-model", default=None, help="a GGUF file for the reasoner (default: SmolLM2-135M)")
@@ -231,13 +237,14 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
                    help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
                         "final descent starts)")
     p.add_argument("--drone-id", default="d0")
-    p.add_argument("--port", type=int, default=0, help="bus port (default: a free one)")
+    p.add_argument("--port", type=port, default=0, help="bus port (default: a free one)")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="llmland", description=__doc__)
-    parser.add_argument("--log-level", default="INFO")
-    parser.add_argument("--service-log-level", default="WARNING", help="log level of the child services")
+    parser.add_argument("--log-level", type=str.upper, choices=LOG_LEVELS, default="INFO")
+    parser.add_argument("--service-log-level", type=str.upper, choices=LOG_LEVELS, default="WARNING",
+                        help="log level of the child services")
     sub = parser.add_subparsers(dest="command", required=True)
     _add_land_parser(sub)
     _add_trials_parser(sub)
@@ -253,8 +260,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     land = sub.add_parser("land", help="fly one episode and print its EpisodeResult JSON")
     _episode_args(land)
-    land.add_argument("--seed", type=int, default=1)
-    land.add_argument("--rrd", help="write a Rerun recording of the episode to this file")
+    land.add_argument("--seed", type=non_negative_int, default=1)
+    land.add_argument("--rrd", type=writable_file, help="write a Rerun recording of the episode to this file")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     land.add_argument("--kill", action="append", default=[], metavar="SERVICE@SIM_S",
                       help="fault run: kill a service (vle, reasoner, ...) when the episode reaches SIM_S seconds")
@@ -264,29 +271,31 @@ def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
 def _add_trials_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     trials = sub.add_parser("trials", help="fly many seeds on one stack; CSV + summary")
     _episode_args(trials)
-    trials.add_argument("--seeds", default="1-20", help="e.g. 1-20 or 1,4,7-9")
-    trials.add_argument("--out", default="runs/trials")
+    trials.add_argument("--seeds", type=seed_list, default="1-20", help="e.g. 1-20 or 1,4,7-9")
+    trials.add_argument("--out", type=writable_dir, default="runs/trials")
     trials.set_defaults(func=cmd_trials)
 
 
 def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     exp = sub.add_parser("experiment", help="run exp1|exp2|exp3 (DESIGN §8) into a results folder")
     exp.add_argument("experiment", choices=["exp1", "exp2", "exp3"])
-    exp.add_argument("--trials", type=int, default=50, help="trials per row (default 50)")
-    exp.add_argument("--seed-base", type=int, default=1, help="trial i flies seed S+i")
+    exp.add_argument("--trials", type=positive_int, default=50, help="trials per row (default 50)")
+    exp.add_argument("--seed-base", type=non_negative_int, default=1, help="trial i flies seed S+i")
     exp.add_argument("--methods", help=f"comma-separated, default all of: {', '.join(METHODS[1:])}")
     exp.add_argument("--worlds", help=f"comma-separated (exp2), default all of: {', '.join(WORLDS)}")
-    exp.add_argument("--latency-model", default=None,
+    exp.add_argument("--latency-model", type=latency_model, default=None,
                      help="measured (default), fixed:<ms> or normal:<mean_ms>,<sd_ms>: replays other hardware")
     exp.add_argument("--specs", choices=["pipeline", "oracle"], default="pipeline",
                      help="semantic methods: real perception (default) or specs given from ground truth")
-    exp.add_argument("--gguf", action="append", default=[], help="exp3: another GGUF model to compare (repeat)")
-    exp.add_argument("--jobs", type=int, default=1, help="episodes in parallel, each its own stack and bus port")
-    exp.add_argument("--timeout", type=float, default=90.0,
+    exp.add_argument("--gguf", type=existing_file, action="append", default=[],
+                     help="exp3: another GGUF model to compare (repeat)")
+    exp.add_argument("--jobs", type=positive_int, default=1,
+                     help="episodes in parallel, each its own stack and bus port")
+    exp.add_argument("--timeout", type=positive_seconds, default=90.0,
                      help="episode time limit (sim seconds; default 90, the paper's; a landing takes 20-60 s)")
     exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
     exp.add_argument("--resume", action="store_true", help="skip the trials already in OUT/trials.csv")
-    exp.add_argument("--out", required=True, help="results folder")
+    exp.add_argument("--out", type=writable_dir, required=True, help="results folder")
     exp.set_defaults(func=cmd_experiment)
 
 
@@ -297,7 +306,7 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     up.add_argument("--drone-id", default="d0", help="the drone's id (one drone)")
     up.add_argument("--drones", type=int, default=0, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
-    up.add_argument("--port", type=int, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
+    up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
     up.add_argument("--log-dir", help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")
     up.add_argument("--start-timeout", type=float, default=180.0, help="seconds to wait for every service")
     up.set_defaults(func=cmd_up)
@@ -306,7 +315,7 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
 def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     mission = sub.add_parser("mission", help="send a mission to a running stack (`llmland up`); print its result")
     mission.add_argument("--world", choices=WORLDS, required=True)
-    mission.add_argument("--seed", type=int, required=True)
+    mission.add_argument("--seed", type=non_negative_int, required=True)
     mission.add_argument("--method", choices=METHODS, default="llm-land",
                          help="must match the running services (llm/llm-land need the VLE and the reasoner)")
     mission.add_argument("--drone-id", default="d0")
@@ -314,9 +323,9 @@ def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
                          help=f"comma-separated endpoints of the running stack or a router (client mode; default "
                               f"ZENOH_CONNECT or {DEFAULT_ENDPOINT}; a tls/ endpoint reads ZENOH_TLS_ROOT_CA, "
                               "ZENOH_TLS_CERTIFICATE, ZENOH_TLS_PRIVATE_KEY)")
-    mission.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
+    mission.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
     mission.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
-    mission.add_argument("--pedestrians", type=int, default=None)
+    mission.add_argument("--pedestrians", type=non_negative_int, default=None)
     mission.add_argument("--wall-timeout", type=float, default=None, help="give up after this many wall seconds")
     mission.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     mission.set_defaults(func=cmd_mission)
@@ -333,10 +342,11 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[
 def _add_ceiling_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     ceiling = sub.add_parser("ceiling", help="per seed, when the hard-limit gate would open with perfect perception "
                                              "(no method that keeps the limit can land where it never does)")
-    ceiling.add_argument("--worlds", default=",".join(WORLDS), help="comma-separated")
-    ceiling.add_argument("--seeds", default="1-50", help="e.g. 1-50 or 1,4,7-9")
-    ceiling.add_argument("--timeout", type=float, default=90.0, help="episode time limit (sim seconds)")
-    ceiling.add_argument("--pedestrians", type=int, default=None, help="number of pedestrians (default: the "
+    ceiling.add_argument("--worlds", type=names_from(WORLDS), default=",".join(WORLDS), help="comma-separated")
+    ceiling.add_argument("--seeds", type=seed_list, default="1-50", help="e.g. 1-50 or 1,4,7-9")
+    ceiling.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
+    ceiling.add_argument("--pedestrians", type=non_negative_int, default=None,
+                         help="number of pedestrians (default: the "
                                                                          "world's; exp 1 flies 1)")
     ceiling.add_argument("--json", action="store_true", help="print the summary as JSON")
     ceiling.set_defaults(func=cmd_ceiling)
@@ -351,7 +361,7 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
     rows = []
     with _stdout_to_stderr():  # pybullet prints to fd 1
         for world in args.worlds.split(","):
-            for seed in _parse_seeds(args.seeds):
+            for seed in args.seeds:
                 row = seed_ceiling(world, seed, args.timeout, settings, args.pedestrians)
                 rows.append(row)
                 opens = "never opens" if row.first_open_s is None else f"first opens at {row.first_open_s:.1f} s"

@@ -174,3 +174,22 @@ def test_resume_on_a_folder_written_with_older_columns_keeps_rows_in_line(tmp_pa
     assert path.read_text().splitlines()[0] == ",".join(COLUMNS)
     assert [r["outcome"] for r in read_rows(path)] == ["landed"] * 3
     assert [r["latency_model"] for r in read_rows(path)] == ["measured"] * 3
+
+
+def test_resume_flies_a_row_cut_short_again_and_names_a_file_that_is_no_trials_table(
+        tmp_path: Path, stand_ins: dict[int, int]) -> None:
+    """A run killed while writing a row leaves it cut short: --resume counted it as done, then
+    failed on it. It is now left out (and flown again); a file that is no trials table is named."""
+    experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"])
+    path = tmp_path / "trials.csv"
+    text = path.read_text()
+    path.write_text(text[: text.rindex("\n", 0, len(text) - 1) + 1] + text.splitlines()[-1][:25])
+    assert [int(r["seed"]) for r in read_rows(path)] == [1]
+    summary = experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"], resume=True)
+    assert summary["rows"][0]["n"] == 2
+    assert sorted(int(r["seed"]) for r in read_rows(path)) == [1, 2]
+    for bad, says in ((b"a,b\n1,2\n", "not a trials table"), (b"\xff\xfe\x00", "not a readable trials table")):
+        path.write_bytes(bad)
+        with pytest.raises(ValueError, match=says) as err:
+            read_rows(path)
+        assert str(path) in str(err.value)

@@ -98,29 +98,58 @@ def error_row(trial: Trial, reason: str) -> dict[str, Any]:
     return row
 
 
+#: the columns that name a trial (:func:`row_key`)
+KEY_COLUMNS = ("world", "method", "variant", "seed")
+
+
 def read_rows(path: Path) -> list[dict[str, str]]:
+    """The complete rows of the trials table at ``path`` (see :func:`_read_table`)."""
     return _read_table(path)[1]
 
 
-def _read_table(path: Path) -> tuple[list[str], list[dict[str, str]]]:
-    """The CSV at ``path``: its header and its rows (none of either when there is no file)."""
+def _read_table(path: Path) -> tuple[list[str], list[dict[str, str]], int]:
+    """The trials table at ``path``: its header, its complete rows and how many incomplete ones
+    were left out (nothing when there is no file).
+
+    A row cut short (a run killed while it wrote the row: fewer fields than the header, or a key
+    that does not parse) is not a result: it is left out, with a warning naming the line, so
+    ``--resume`` flies that trial again. A file that is not a trials table (not UTF-8 CSV, no
+    world / method / variant / seed columns) raises ValueError naming it."""
     if not path.exists():
-        return [], []
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        rows = list(reader)
-        return list(reader.fieldnames or []), rows
+        return [], [], 0
+    try:
+        with path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.DictReader(fh)
+            rows, header = list(reader), list(reader.fieldnames or [])
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise ValueError(f"{path} is not a readable trials table ({exc}): move it away or use another --out") from None
+    missing = [c for c in KEY_COLUMNS if c not in header]
+    if header and missing:
+        raise ValueError(f"{path} is not a trials table (no {', '.join(missing)} column): use another --out")
+    complete: list[dict[str, str]] = []
+    for line, row in enumerate(rows, start=2):
+        try:
+            if None in row.values() or None in row:
+                raise ValueError("fewer or more fields than the header")
+            row_key(row)
+        except ValueError as exc:
+            log.warning("%s line %d is incomplete (%s; a run stopped while writing it?): not a result, "
+                        "flown again on --resume", path, line, exc)
+            continue
+        complete.append(row)
+    return header, complete, len(rows) - len(complete)
 
 
 def drop_error_rows(path: Path) -> list[dict[str, str]]:
-    """Remove the ``error`` rows from the CSV at ``path`` (a stack fault is not a result: ``--resume``
-    flies those trials again) and return the rows that stay. The file is replaced in one step (a
+    """Remove the ``error`` rows and the incomplete ones from the CSV at ``path`` (a stack fault is
+    not a result, nor is a row cut short: ``--resume`` flies those trials again) and return the rows
+    that stay. The file is replaced in one step (a
     crash or Ctrl-C meanwhile leaves the old one), written with today's :data:`COLUMNS`; so is a
     file an older version wrote with other columns, or the rows appended to it would not line up
     with its header (a column missing from it stays empty)."""
-    header, rows = _read_table(path)
+    header, rows, incomplete = _read_table(path)
     kept = [r for r in rows if r["outcome"] != "error"]
-    if len(kept) < len(rows) or (path.exists() and header != COLUMNS):
+    if incomplete or len(kept) < len(rows) or (path.exists() and header != COLUMNS):
         tmp = path.with_name(path.name + ".tmp")
         with tmp.open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")

@@ -1,0 +1,106 @@
+"""argparse types for the command line: a bad value is a usage error (exit 2, one line naming the
+option) before any service starts, never a traceback after the stack is up."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+from pathlib import Path
+
+from llmland_schemas.messages import LATENCY_MODEL_PATTERN
+
+
+def non_negative_int(text: str) -> int:
+    """An integer ≥ 0 (seeds, counts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """An integer ≥ 1 (trials, jobs)."""
+    value = non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def positive_seconds(text: str) -> float:
+    """A finite number of seconds > 0 (time limits)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value) or value <= 0.0:
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds > 0, got {text}")
+    return value
+
+
+def latency_model(text: str) -> str:
+    """``measured``, ``fixed:<ms>`` or ``normal:<mean_ms>,<sd_ms>`` (DESIGN §4)."""
+    if re.match(LATENCY_MODEL_PATTERN, text) is None:
+        raise argparse.ArgumentTypeError(f"{text!r}: use measured, fixed:<ms> or normal:<mean_ms>,<sd_ms>")
+    return text
+
+
+def seed_list(text: str) -> list[int]:
+    """Seeds as ``1-20`` or ``1,4,7-9`` (ranges inclusive, increasing, at least one seed)."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, dash, hi = part.strip().partition("-")
+        first, last = non_negative_int(lo), non_negative_int(hi) if dash else None
+        if last is not None and last < first:
+            raise argparse.ArgumentTypeError(f"range {part.strip()!r} is empty (write it low-high)")
+        seeds += list(range(first, (first if last is None else last) + 1))
+    return seeds
+
+
+def writable_dir(text: str) -> str:
+    """A folder that exists and is writable, or can be created (``--out``)."""
+    path = Path(text)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise argparse.ArgumentTypeError(f"cannot create {text}: {exc.strerror or exc}") from None
+    if not os.access(path, os.W_OK):
+        raise argparse.ArgumentTypeError(f"{text} is not writable")
+    return text
+
+
+def writable_file(text: str) -> str:
+    """A file whose folder exists (or can be created) and is writable (``--rrd``)."""
+    writable_dir(str(Path(text).parent or "."))
+    return text
+
+
+def existing_file(text: str) -> str:
+    """A file that exists (``--gguf``)."""
+    if not Path(text).is_file():
+        raise argparse.ArgumentTypeError(f"no such file: {text}")
+    return text
+
+
+def port(text: str) -> int:
+    """A TCP port, 0 (any free one) to 65535."""
+    value = non_negative_int(text)
+    if value > 65535:
+        raise argparse.ArgumentTypeError(f"not a TCP port: {value}")
+    return value
+
+
+def names_from(known: list[str]):  # type: ignore[no-untyped-def]
+    """A comma-separated list of names, each one of ``known`` (an argparse type)."""
+
+    def parse(text: str) -> str:
+        unknown = [n for n in text.split(",") if n not in known]
+        if unknown or not text:
+            raise argparse.ArgumentTypeError(f"unknown {', '.join(unknown) or 'empty list'}; known: {', '.join(known)}")
+        return text
+
+    return parse

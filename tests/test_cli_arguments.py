@@ -1,0 +1,42 @@
+"""Bad command-line values are usage errors (exit 2, naming the option) before anything starts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from llmland.cli import build_parser
+
+
+@pytest.mark.parametrize(("argv", "says"), [
+    (["land", "--seed", "-1"], "--seed: must be >= 0"),
+    (["land", "--latency-model", "fixed:abc"], "--latency-model"),
+    (["land", "--latency-model", "normal:1"], "--latency-model"),
+    (["land", "--timeout", "nan"], "--timeout"),
+    (["land", "--pedestrians", "-1"], "--pedestrians"),
+    (["land", "--port", "99999"], "not a TCP port"),
+    (["land", "--rrd", "/proc/nope/x.rrd"], "--rrd: cannot create"),
+    (["experiment", "exp1", "--trials", "0", "--out", "{tmp}"], "--trials: must be >= 1"),
+    (["experiment", "exp1", "--jobs", "0", "--out", "{tmp}"], "--jobs: must be >= 1"),
+    (["experiment", "exp1", "--seed-base", "-5", "--out", "{tmp}"], "--seed-base"),
+    (["experiment", "exp1", "--out", "/proc/nope/x"], "--out: cannot create"),
+    (["experiment", "exp3", "--gguf", "/nonexistent.gguf", "--out", "{tmp}"], "no such file"),
+    (["trials", "--seeds", "abc"], "not an integer"),
+    (["ceiling", "--seeds", "5-1"], "is empty"),
+    (["ceiling", "--worlds", "mars"], "unknown mars"),
+    (["--log-level", "FOO", "land"], "--log-level"),
+])
+def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args([a.replace("{tmp}", str(tmp_path)) for a in argv])
+    assert exit_.value.code == 2
+    assert says in capsys.readouterr().err
+
+
+def test_good_values_parse() -> None:
+    args = build_parser().parse_args(["ceiling", "--seeds", "1,4,7-9", "--worlds", "urban,open_field"])
+    assert args.seeds == [1, 4, 7, 8, 9] and args.worlds == "urban,open_field"
+    args = build_parser().parse_args(["--log-level", "debug", "land", "--latency-model", "normal:40,5"])
+    assert args.log_level == "DEBUG" and args.latency_model == "normal:40,5" and args.seed == 1
