@@ -104,3 +104,18 @@ def names_from(known: list[str]):  # type: ignore[no-untyped-def]
         return text
 
     return parse
+
+
+def fault(text: str) -> tuple[str, float]:
+    """``SERVICE@SIM_S`` (a fault run: kill SERVICE when the episode reaches SIM_S seconds; ``@0``
+    when the time is left out) → ``(service, seconds)``."""
+    service, _, at = text.partition("@")
+    if not service:
+        raise argparse.ArgumentTypeError(f"{text!r}: use SERVICE@SIM_S, e.g. reasoner@20")
+    try:
+        seconds = float(at or 0.0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: {at!r} is not a number of seconds") from None
+    if not math.isfinite(seconds) or seconds < 0.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: the time must be a finite number of seconds >= 0")
+    return service, seconds

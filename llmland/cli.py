@@ -21,6 +21,7 @@ from llmland_schemas.service import configure_logging, shutdown_event
 
 from .arguments import (
     existing_file,
+    fault,
     latency_model,
     names_from,
     non_negative_int,
@@ -71,12 +72,15 @@ def summary_line(r: EpisodeResult, startup_s: float | None = None) -> str:
 def cmd_land(args: argparse.Namespace) -> int:
     rrd = str(Path(args.rrd).resolve()) if args.rrd else None
     cfg = _config(args)
+    absent = [service for service, _ in args.kill if service not in cfg.services()]
+    if absent:
+        log.error("--kill %s: this stack runs %s", ", ".join(absent), ", ".join(cfg.services()))
+        return 2
     t0 = time.perf_counter()
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
         startup_s = time.perf_counter() - t0
-        for fault in args.kill:
-            service, _, at = fault.partition("@")
-            running.kill_at(service, float(at or 0.0))
+        for service, at in args.kill:
+            running.kill_at(service, at)
         result = running.runner.run(_mission(args, cfg, args.seed, rrd))
     sys.stderr.write(summary_line(result, startup_s) + "\n")
     sys.stderr.flush()
@@ -263,7 +267,7 @@ def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
     land.add_argument("--seed", type=non_negative_int, default=1)
     land.add_argument("--rrd", type=writable_file, help="write a Rerun recording of the episode to this file")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
-    land.add_argument("--kill", action="append", default=[], metavar="SERVICE@SIM_S",
+    land.add_argument("--kill", type=fault, action="append", default=[], metavar="SERVICE@SIM_S",
                       help="fault run: kill a service (vle, reasoner, ...) when the episode reaches SIM_S seconds")
     land.set_defaults(func=cmd_land)
 

@@ -26,6 +26,8 @@ from llmland.cli import build_parser
     (["ceiling", "--seeds", "5-1"], "is empty"),
     (["ceiling", "--worlds", "mars"], "unknown mars"),
     (["--log-level", "FOO", "land"], "--log-level"),
+    (["land", "--kill", "planner@abc"], "not a number of seconds"),
+    (["land", "--kill", "@5"], "SERVICE@SIM_S"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
@@ -40,3 +42,16 @@ def test_good_values_parse() -> None:
     assert args.seeds == [1, 4, 7, 8, 9] and args.worlds == "urban,open_field"
     args = build_parser().parse_args(["--log-level", "debug", "land", "--latency-model", "normal:40,5"])
     assert args.log_level == "DEBUG" and args.latency_model == "normal:40,5" and args.seed == 1
+
+
+def test_killing_a_service_the_stack_does_not_run_is_refused_before_it_starts(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    import llmland.cli as cli
+
+    def no_stack(*_a: object, **_k: object) -> None:
+        raise AssertionError("the stack was started")
+
+    monkeypatch.setattr(cli, "open_stack", no_stack)
+    args = build_parser().parse_args(["land", "--method", "baseline", "--kill", "reasoner@5"])
+    assert args.kill == [("reasoner", 5.0)]
+    assert cli.cmd_land(args) == 2
