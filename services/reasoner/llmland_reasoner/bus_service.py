@@ -83,7 +83,12 @@ class ReasonerBusService:
         self._worker.start()
 
     def _on_scene(self, k: str, scene: SceneDescription) -> None:
-        drone, now = drone_of(k), time.perf_counter()
+        try:
+            drone, now = drone_of(k), time.perf_counter()
+        except ValueError as exc:  # a key no drone may have (``llmland/bad!id/vle/scene``): malformed
+            self._count("scenes_bad_key")
+            log.warning("dropped a scene on %s (%d so far): %s", k, self.stats["scenes_bad_key"], exc)
+            return
         with self._lock:
             self.stats["scenes_offered"] += 1
             self.offered[drone] += 1

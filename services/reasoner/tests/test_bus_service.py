@@ -65,6 +65,7 @@ def test_specs_for_every_drone_newest_scene_wins_and_query() -> None:
             for d in ("d0", "d1", "d2"):
                 client.publish(key(d, Topic.SCENE), _scene(d, seq))
         client.publish_bytes(key("d0", Topic.SCENE), b"garbage")
+        client.publish(key("d0", Topic.SCENE).replace("/d0/", "/bad!id/"), _scene("d0", 5))  # no drone's key
         deadline = time.monotonic() + 10
         while time.monotonic() < deadline:
             with lock:
@@ -84,6 +85,8 @@ def test_specs_for_every_drone_newest_scene_wins_and_query() -> None:
         replies = list(client.session.get(REASONER_SPEC_QUERY, payload=b"a man walking a dog", timeout=5))
         assert replies and replies[0].ok is not None
         assert decode(SafetySpec, replies[0].ok.payload.to_bytes()).is_dynamic
-        replies = list(client.session.get(REASONER_SPEC_QUERY, payload=b"", timeout=5))
-        assert replies and replies[0].err is not None
+        assert service.stats["scenes_bad_key"] == 1  # counted and dropped, not a handler traceback
+        for bad in (b"", b'{"caption": null}', b'{"caption": {"a": 1}}'):  # null was reasoned as "None"
+            replies = list(client.session.get(REASONER_SPEC_QUERY, payload=bad, timeout=5))
+            assert replies and replies[0].err is not None, bad
         service.close()
