@@ -285,8 +285,10 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
     exp.add_argument("experiment", choices=["exp1", "exp2", "exp3"])
     exp.add_argument("--trials", type=positive_int, default=50, help="trials per row (default 50)")
     exp.add_argument("--seed-base", type=non_negative_int, default=1, help="trial i flies seed S+i")
-    exp.add_argument("--methods", help=f"comma-separated, default all of: {', '.join(METHODS[1:])}")
-    exp.add_argument("--worlds", help=f"comma-separated (exp2), default all of: {', '.join(WORLDS)}")
+    exp.add_argument("--methods", type=names_from(METHODS),
+                     help=f"comma-separated, default all of: {', '.join(METHODS[1:])}")
+    exp.add_argument("--worlds", type=names_from(WORLDS),
+                     help=f"comma-separated (exp2), default all of: {', '.join(WORLDS)}")
     exp.add_argument("--latency-model", type=latency_model, default=None,
                      help="measured (default), fixed:<ms> or normal:<mean_ms>,<sd_ms>: replays other hardware")
     exp.add_argument("--specs", choices=["pipeline", "oracle"], default="pipeline",

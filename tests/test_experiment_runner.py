@@ -188,6 +188,11 @@ def test_resume_flies_a_row_cut_short_again_and_names_a_file_that_is_no_trials_t
     summary = experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"], resume=True)
     assert summary["rows"][0]["n"] == 2
     assert sorted(int(r["seed"]) for r in read_rows(path)) == [1, 2]
+    text = path.read_text()
+    path.write_text(text[:-3])  # cut inside the last field (the episode id): the fields are all there
+    assert sorted(int(r["seed"]) for r in read_rows(path)) == [1]
+    experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"], resume=True)
+    assert sorted(int(r["seed"]) for r in read_rows(path)) == [1, 2]  # the next row not glued onto it
     for bad, says in ((b"a,b\n1,2\n", "not a trials table"), (b"\xff\xfe\x00", "not a readable trials table")):
         path.write_bytes(bad)
         with pytest.raises(ValueError, match=says) as err:

@@ -12,6 +12,7 @@ summary names it as missing).
 from __future__ import annotations
 
 import csv
+import io
 import logging
 import os
 import signal
@@ -118,11 +119,13 @@ def _read_table(path: Path) -> tuple[list[str], list[dict[str, str]], int]:
     if not path.exists():
         return [], [], 0
     try:
-        with path.open(newline="", encoding="utf-8") as fh:
-            reader = csv.DictReader(fh)
-            rows, header = list(reader), list(reader.fieldnames or [])
+        text = path.read_text(encoding="utf-8")
+        reader = csv.DictReader(io.StringIO(text, newline=""))
+        rows, header = list(reader), list(reader.fieldnames or [])
     except (UnicodeDecodeError, csv.Error) as exc:
         raise ValueError(f"{path} is not a readable trials table ({exc}): move it away or use another --out") from None
+    # every row ends with a newline: a last row without one was cut, maybe inside its last field
+    cut_last = bool(rows) and not text.endswith(("\n", "\r"))
     missing = [c for c in KEY_COLUMNS if c not in header]
     if header and missing:
         raise ValueError(f"{path} is not a trials table (no {', '.join(missing)} column): use another --out")
@@ -131,6 +134,8 @@ def _read_table(path: Path) -> tuple[list[str], list[dict[str, str]], int]:
         try:
             if None in row.values() or None in row:
                 raise ValueError("fewer or more fields than the header")
+            if cut_last and line == len(rows) + 1:
+                raise ValueError("no newline at its end")
             row_key(row)
         except ValueError as exc:
             log.warning("%s line %d is incomplete (%s; a run stopped while writing it?): not a result, "

@@ -18,6 +18,8 @@ from llmland_schemas.arrays import FloatArray
 
 #: the reference ends this far (m) above the touchdown point, at rest
 REFERENCE_FLOOR_M = 0.03
+#: a climb-out's heights are sampled for at most this long (s)
+CLIMB_OUT_MAX_S = 30.0
 
 
 @dataclass(frozen=True)
@@ -77,21 +79,22 @@ class DescentProfile:
         return (vm - v0) / a + d_cruise / vm + (vm - vt) / b
 
 
-def climb_out_time_s(height_m: float, sink_mps: float, exit_height_m: float, climb_speed_mps: float,
-                     accel_mps2: float) -> float:
-    """Seconds (s) until a climb-out started now takes the vehicle above ``exit_height_m``.
+def climb_out_heights(height_m: float, sink_mps: float, exit_height_m: float, climb_speed_mps: float,
+                      accel_mps2: float, dt_s: float) -> FloatArray:
+    """Heights (m) every ``dt_s`` of a climb-out started now, until above ``exit_height_m``.
 
-    From ``height_m`` (m) sinking at ``sink_mps`` (m/s, positive down): braking at ``accel_mps2``
-    (m/s²) to rest costs ``v/a`` and ``v²/2a`` of height, then rising the remaining distance ``D``
-    from rest at ``accel_mps2`` up to ``climb_speed_mps`` takes ``D/v_c + v_c/2a`` (constant
-    acceleration, then constant speed; exact when ``D ≥ v_c²/2a``, an upper bound otherwise). No
-    climb is needed (0 s) when the vehicle stops above ``exit_height_m``.
+    From ``height_m`` sinking at ``sink_mps`` (m/s, positive down): the vertical speed changes by at
+    most ``accel_mps2`` (m/s²) per second, from the sink to ``climb_speed_mps`` up, and stays there.
+    The first height is ``height_m``; the last is the first at or above ``exit_height_m`` (at
+    most 30 s of samples).
     """
-    if climb_speed_mps <= 0.0 or accel_mps2 <= 0.0:
-        raise ValueError(f"climb speed and acceleration must be positive, got {climb_speed_mps}, {accel_mps2}")
-    v = max(0.0, sink_mps)
-    lowest = height_m - v * v / (2.0 * accel_mps2)
-    rise = exit_height_m - lowest
-    if rise <= 0.0:  # it stops above the exit height: it never was within reach
-        return 0.0
-    return v / accel_mps2 + rise / climb_speed_mps + climb_speed_mps / (2.0 * accel_mps2)
+    if climb_speed_mps <= 0.0 or accel_mps2 <= 0.0 or dt_s <= 0.0:
+        raise ValueError(f"climb speed, acceleration and step must be positive: {climb_speed_mps}, {accel_mps2}, "
+                         f"{dt_s}")
+    h, v = height_m, max(0.0, sink_mps)  # v positive down
+    out = [h]
+    while h < exit_height_m and len(out) * dt_s < CLIMB_OUT_MAX_S:
+        v = max(v - accel_mps2 * dt_s, -climb_speed_mps)
+        h -= v * dt_s
+        out.append(h)
+    return np.asarray(out)

@@ -126,18 +126,52 @@ def commit_clearance(landing_xy: FloatArray, people: list[PersonHypothesis], dur
     """
     untracked = coverage_m - bounds.reach_m(duration_s + unseen_s) - xy_margin_m - hard_limit_m
     worst = Clearance(-math.inf if math.isnan(untracked) else untracked, "")
-    p = np.asarray(landing_xy, dtype=float)[:2]
     within = coverage_m if lost_within_m is None else lost_within_m
-    for person in people:
-        dist = float(np.linalg.norm(p - person.centre_xy[:2]))
-        if person.age_s > recent_s and not lost_inside(dist, person, within, bounds) and not math.isnan(dist):
-            continue
+    for person, dist in counted_people(landing_xy, people, bounds, recent_s, within):
         reach = bounds.reach_m(person.age_s + duration_s, person.speed_mps)
         margin = dist - person.radius_m - reach - xy_margin_m - hard_limit_m
         if math.isnan(margin):  # a NaN position or radius: nothing is known, so nothing is clear
             margin = -math.inf
         if margin < worst.margin_m:
             worst = Clearance(margin, person.track_id)
+    return worst
+
+
+def counted_people(landing_xy: FloatArray, people: list[PersonHypothesis], bounds: HumanMotionBounds,
+                   recent_s: float, within_m: float) -> list[tuple[PersonHypothesis, float]]:
+    """The people the gate counts, each with their horizontal distance (m) from ``landing_xy``:
+    observed within ``recent_s``, or :func:`lost_inside` the disc of radius ``within_m`` (a NaN
+    position or age always counts: nothing is known of it)."""
+    p = np.asarray(landing_xy, dtype=float)[:2]
+    out = []
+    for person in people:
+        dist = float(np.linalg.norm(p - person.centre_xy[:2]))
+        # written as "not older" so that a NaN age counts too
+        if not person.age_s > recent_s or lost_inside(dist, person, within_m, bounds) or math.isnan(dist):
+            out.append((person, dist))
+    return out
+
+
+def axis_clearance_m(landing_xy: FloatArray, people: list[PersonHypothesis], bounds: HumanMotionBounds,
+                     times_s: FloatArray, heights_m: FloatArray, *, xy_margin_m: float, recent_s: float,
+                     within_m: float, hard_limit_m: float = PERSON_HARD_LIMIT_M) -> float:
+    """Worst margin (m) to the hard limit over a vertical manoeuvre above ``landing_xy``.
+
+    The vehicle is at ``heights_m`` (n,) above the people's ground at ``times_s`` (n,) s from now;
+    each counted person (:func:`counted_people`) may be anywhere within their reachable disc then
+    (:func:`commit_clearance`'s), and the distance to their body axis, which ends at
+    :data:`PERSON_MAX_HEIGHT_M`, is ``hypot(horizontal gap, height above the head)``. Compares two
+    ways out of reach (finishing a descent, climbing out): the vertical gap counts, so a vehicle
+    still well above the heads may let someone come closer horizontally. +inf with nobody counted.
+    """
+    t, h = np.asarray(times_s, dtype=float), np.asarray(heights_m, dtype=float)
+    above = np.maximum(0.0, h - PERSON_MAX_HEIGHT_M)
+    worst = math.inf
+    for person, dist in counted_people(landing_xy, people, bounds, recent_s, within_m):
+        reach = np.array([bounds.reach_m(person.age_s + tk, person.speed_mps) for tk in t.tolist()])
+        gap = np.maximum(0.0, dist - person.radius_m - reach - xy_margin_m)
+        margin = float(np.min(np.hypot(gap, above))) - hard_limit_m
+        worst = min(worst, -math.inf if math.isnan(margin) else margin)
     return worst
 
 

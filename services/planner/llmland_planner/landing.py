@@ -8,8 +8,9 @@ Two layers (DESIGN §6):
   person, tracked or not, is provably farther than 1 m from the landing point until touchdown
   is complete. The gate is re-checked every tick of the descent: if a reachable set is about to
   touch (an assumption failed: someone faster than assumed, a missed detection), the vehicle
-  leaves reach the quicker way: it climbs out only when that takes less time than finishing
-  (:meth:`LandingLogic.climb_out_is_quicker`: near the top of the reach), else finishes;
+  takes the way out that keeps people farther: it climbs out only when that keeps a larger
+  distance to everyone's body axis than finishing (:meth:`LandingLogic.climb_out_is_safer`: near
+  the top of the reach), else finishes;
 - the **semantic keep-out** (the specs' buffers, with predicted motion) shapes the path and the
   hover point (:meth:`~.world_model.WorldModel.regions`), and the landing disc must stay clear
   of moving things' predicted buffers and still things' footprints during the descent
@@ -32,9 +33,16 @@ import numpy as np
 from llmland_schemas.arrays import FloatArray
 
 from .coverage import HEIGHT_STEP_M
-from .descent import DescentProfile, climb_out_time_s
+from .descent import DescentProfile, climb_out_heights
 from .ground import ReachFloor
-from .hard_limit import REACH_CEILING_M, Clearance, HumanMotionBounds, PersonHypothesis, commit_clearance
+from .hard_limit import (
+    REACH_CEILING_M,
+    Clearance,
+    HumanMotionBounds,
+    PersonHypothesis,
+    axis_clearance_m,
+    commit_clearance,
+)
 from .regions import UNSEEN_TOP, UnsafeRegion
 from .settings import PlannerSettings
 
@@ -47,6 +55,8 @@ HOVER_REGION_CLEARANCE_M = 0.5
 HOLD_LOST_M = 1.7
 #: heights (m) tried for a lowered hold: the coverage table's own step
 HOLD_HEIGHT_STEP_M = HEIGHT_STEP_M
+#: time step (s) of the two ways out of reach compared when a descent's check fails
+WAY_OUT_STEP_S = 0.02
 
 
 class Phase(StrEnum):
@@ -211,21 +221,33 @@ class LandingLogic:
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate
 
-    def climb_out_is_quicker(self, height_m: float, sink_mps: float, around: Surroundings) -> bool:
-        """Whether climbing out now leaves everyone's reach sooner than finishing the descent.
+    def climb_out_is_safer(self, height_m: float, sink_mps: float, offset_m: float, around: Surroundings) -> bool:
+        """Whether climbing out now keeps every counted person farther from the vehicle than
+        finishing the descent would (:func:`~.hard_limit.axis_clearance_m` over each way out).
 
-        Finishing: the profile's time to touchdown plus the touchdown dwell. Climbing out: braking at
-        the profile's own deceleration (what the MPC is known to track), then up at ``climb_speed_mps``
-        until above :data:`~.hard_limit.REACH_CEILING_M` over the target (or the reach floor there,
-        if higher) — :func:`.descent.climb_out_time_s`. Sinking at 2–3 m/s, the vehicle is about
-        0.5 m into reach before it stops, and climbs at 1.5 m/s: only in the top of the reach is
-        climbing the quicker way out. When a reachable set is about to touch, the shorter time in
-        reach is the smaller exposure, whichever way it goes.
+        Finishing follows the descent profile to touchdown and the dwell; climbing out brakes at the
+        profile's own deceleration (what the MPC is known to track) and climbs at
+        ``climb_speed_mps`` until above :data:`~.hard_limit.REACH_CEILING_M` over the target (or the
+        reach floor there, if higher). Sinking at 2–3 m/s the vehicle drops another ≈ 0.5 m before
+        it can climb, and climbs at 1.5 m/s: low down, finishing is out of reach sooner; near the
+        top of the reach, climbing keeps the vehicle above the heads. The distance to a body axis
+        counts the height above the head, so neither time in reach nor one height threshold decides.
         """
         s = self.settings
-        finish = self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m) + s.touchdown_dwell_s
         exit_m = max(REACH_CEILING_M, around.floor_at(self.target_m) - float(self.target_m[2]))
-        return climb_out_time_s(height_m, sink_mps, exit_m, s.climb_speed_mps, s.descent_brake_mps2) < finish
+        finish = self.profile.time_to_touchdown_s(height_m, sink_mps, s.touchdown_height_m) + s.touchdown_dwell_s
+        n = int(math.ceil(finish / WAY_OUT_STEP_S)) + 1
+        finish_h, _ = self.profile.reference(height_m, sink_mps, WAY_OUT_STEP_S, n)
+        climb_h = climb_out_heights(height_m, sink_mps, exit_m, s.climb_speed_mps, s.descent_brake_mps2, WAY_OUT_STEP_S)
+
+        def margin(heights: FloatArray) -> float:
+            return axis_clearance_m(self.target_m[:2], around.people, self.bounds,
+                                    WAY_OUT_STEP_S * np.arange(len(heights)), heights,
+                                    xy_margin_m=s.landing_xy_margin_m + max(0.0, offset_m),
+                                    recent_s=s.recent_observation_s if s.require_coverage else math.inf,
+                                    within_m=self.commit_coverage_m)
+
+        return margin(climb_h) > margin(finish_h)
 
     @property
     def lowered_hold(self) -> bool:
@@ -250,13 +272,14 @@ class LandingLogic:
     def _untracked_bound_passes(self, height_m: float, coverage_m: float) -> bool:
         """Whether the gate's untracked-people bound passes for a descent from ``height_m`` with the
         coverage ``coverage_m`` (memoised: the hold scan runs every control tick while a hover is
-        raised, over the same few heights and radii)."""
+        raised, over the same few heights and radii). The margin takes the farthest the hold may
+        be off the target when it counts as arrived (``align_radius_m``), as the gate will."""
         key = (height_m, coverage_m)
         if key not in self._untracked_passes:
             s = self.settings
             self._untracked_passes[key] = commit_clearance(
                 self.target_m[:2], [], self.descent_duration_s(height_m, 0.0), self.bounds, coverage_m=coverage_m,
-                unseen_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m).safe
+                unseen_s=s.coverage_frame_period_s, xy_margin_m=s.landing_xy_margin_m + s.align_radius_m).safe
         return self._untracked_passes[key]
 
     def _hold_heights(self, around: Surroundings) -> tuple[float, float]:
@@ -302,8 +325,8 @@ class LandingLogic:
                 self.phase = Phase.TOUCHDOWN
                 return self.phase, tgt
             sink = max(0.0, -float(vel[2]))
-            if not self.gate(height, sink, around, committed=True, offset_m=horiz).open and self.climb_out_is_quicker(
-                    height, sink, around):
+            if not self.gate(height, sink, around, committed=True, offset_m=horiz).open and self.climb_out_is_safer(
+                    height, sink, horiz, around):
                 self.phase = Phase.CLIMB_OUT
                 return self.phase, hover
             return self.phase, tgt

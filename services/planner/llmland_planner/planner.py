@@ -25,7 +25,7 @@ from llmland_schemas import (
 from llmland_schemas.arrays import FloatArray
 from llmland_schemas.frames import CameraFrame
 
-from .coverage import TILT_STEP_RAD, detection_radius_m
+from .coverage import HEIGHT_STEP_M, TILT_STEP_RAD, detection_radius_m
 from .dynamics import ModelParams
 from .hard_limit import REACH_CEILING_M
 from .landing import HOLD_LOST_M, LandingLogic, Phase, Surroundings
@@ -38,6 +38,10 @@ from .snapshots import plan_snapshot
 from .world_model import WorldModel
 
 log = logging.getLogger(__name__)
+
+#: the downward camera sits at most this far (m) below the body's centre (the sim's: 4 cm): a hold
+#: height is chosen for a camera this much lower
+DOWN_CAMERA_BELOW_BODY_MAX_M = HEIGHT_STEP_M
 
 #: The MPC's soft floor sits this far (m) below the target: the ground, not the goal.
 GROUND_FLOOR_MARGIN_M = 0.2
@@ -148,8 +152,10 @@ class Planner:
             return max(0.0, radius(height, tilt_rad) - off_target)
 
         def coverage_at(height_m: float) -> float:
-            """From a hover straight above the target (a hover's tilt: under one table step)."""
-            return radius(height_m, TILT_STEP_RAD)
+            """From a hover straight above the target (a hover's tilt: under one table step), the
+            camera up to :data:`DOWN_CAMERA_BELOW_BODY_MAX_M` below the body: what the gate will get
+            from that hover's frames (their camera's pose), or the hold it picks could never open."""
+            return radius(height_m - DOWN_CAMERA_BELOW_BODY_MAX_M, TILT_STEP_RAD)
 
         age = 0.0 if w.last_down_stamp_s is None else max(0.0, t - w.last_down_stamp_s)
         return Surroundings(w.regions(t), w.people(t), coverage, lambda duration: w.landing_regions(t, duration),

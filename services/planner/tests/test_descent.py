@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from llmland_planner.descent import REFERENCE_FLOOR_M, DescentProfile, climb_out_time_s
+from llmland_planner.descent import REFERENCE_FLOOR_M, DescentProfile, climb_out_heights
 
 PROFILE = DescentProfile(max_speed_mps=3.0, accel_mps2=5.0, brake_mps2=5.0, touchdown_speed_mps=0.3)
 
@@ -32,11 +32,11 @@ def test_three_and_a_half_metres_take_under_two_seconds() -> None:
     assert PROFILE.time_to_touchdown_s(0.1, 0.0, 0.12) == 0.0
 
 
-def test_climb_out_time_brakes_then_climbs_and_is_zero_above_the_exit() -> None:
-    # at rest 1 m below the exit: accelerate to 1.5 m/s at 5 m/s² (0.225 m), then climb the rest
-    assert climb_out_time_s(2.0, 0.0, 3.0, 1.5, 5.0) == pytest.approx(0.3 + (1.0 - 0.225) / 1.5)
-    # sinking 2 m/s: 0.4 s and 0.4 m of braking first
-    assert climb_out_time_s(2.0, 2.0, 3.0, 1.5, 5.0) == pytest.approx(0.4 + 1.4 / 1.5 + 0.15)
-    assert climb_out_time_s(3.5, 0.0, 3.0, 1.5, 5.0) == 0.0
+def test_a_climb_out_brakes_then_climbs_to_the_exit() -> None:
+    h = climb_out_heights(2.0, 2.0, 3.0, 1.5, 5.0, 0.01)
+    assert h[0] == 2.0 and h[-1] >= 3.0 > h[-2]
+    assert min(h) == pytest.approx(2.0 - 2.0**2 / (2 * 5.0), abs=0.03)  # 0.4 m of braking first
+    assert np.max(np.diff(h)) <= 1.5 * 0.01 + 1e-12  # never faster than the climb speed
+    assert list(climb_out_heights(3.5, 0.0, 3.0, 1.5, 5.0, 0.01)) == [3.5]
     with pytest.raises(ValueError):
-        climb_out_time_s(2.0, 0.0, 3.0, 0.0, 5.0)
+        climb_out_heights(2.0, 0.0, 3.0, 0.0, 5.0, 0.01)

@@ -355,3 +355,33 @@ def test_the_coverage_radius_is_the_downward_frames_not_the_ticks():
                                torso=s.coverage_torso)
     assert around.coverage_m == pytest.approx(framed)
     assert framed < level
+
+
+def test_a_hold_height_the_scan_picks_lets_the_gate_open_once_centred():
+    """The hold scan picks the lowest height whose untracked bound passes; the gate then takes the
+    coverage from the frame's camera (the sim's sits 4 cm below the body) and adds the vehicle's
+    offset. The scan assumed the body's height and no offset, and some holds it picked could never
+    open the gate (2.81, 2.91–2.94 m): the vehicle held to the time limit."""
+    from llmland_planner.coverage import TILT_STEP_RAD, detection_radius_m
+    from llmland_schemas import CameraIntrinsics
+
+    s = PlannerSettings()
+    pl = Planner(s)
+    pl.start(MissionGoal(episode_id="e", method="llm-land", start_m=(0, -9, 3.5), target_m=(0, 0, 0)))
+    assert pl.world is not None and pl.landing is not None
+    f = 200.0 / math.tan(math.radians(70.0))
+    intrinsics = CameraIntrinsics(fx=f, fy=f, cx=200.0, cy=200.0, width=400, height=400)
+    pl.world.down_intrinsics, pl.world.last_down_stamp_s = intrinsics, 1.0
+    around = pl._surroundings(1.1, np.array([0.0, 0.0, 3.5]), 0.0)
+    assert around.coverage_at is not None
+    checked = 0
+    for h in np.arange(2.80, 4.30, 0.01):
+        if not pl.landing._untracked_bound_passes(float(h), around.coverage_at(float(h))):
+            continue
+        framed = detection_radius_m(intrinsics, float(h) - 0.04, TILT_STEP_RAD, stride=s.down_blob_stride,
+                                    min_points=s.down_blob_min_points, torso=s.coverage_torso)
+        gate = pl.landing.gate(float(h), 0.0, around.__class__(
+            [], [], framed, lambda _d: [], coverage_age_s=0.0))
+        assert gate.clearance.safe, f"hold at {h:.2f} m: the scan passes, the gate cannot"
+        checked += 1
+    assert checked > 10

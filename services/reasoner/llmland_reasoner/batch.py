@@ -23,6 +23,7 @@ import logging
 from collections.abc import Callable, Sequence
 from functools import partial
 
+from . import deadline
 from .decide import Decider
 from .kb import KbEntry
 from .llm import score_many
@@ -64,6 +65,7 @@ def run_many(mode: Mode, captions: Sequence[str], res: Resources, settings: Reas
             known = [unanimous_or_none(captions[k], hits[k], res, found[k]) if found[k] is not None else None
                      for k in range(len(captions))]
         asked = [k for k, h in enumerate(hits) if h and known[k] is None]
+        deadline.check()  # before the batch's LLM call: not for a caller that stopped waiting
         try:
             answers = score_many(res.backend, [rag_request(captions[k], hits[k], settings.rag_context_in_prompt)
                                                for k in asked]) if asked else []

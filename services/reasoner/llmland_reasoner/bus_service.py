@@ -40,9 +40,12 @@ from llmland_schemas.bus import Bus
 
 from .engine import ReasonerEngine
 from .fleet import FairSceneQueue, Pending
-from .upload import CaptionRefusedError
+from .upload import CaptionFailedError, CaptionRefusedError
 
 log = logging.getLogger(__name__)
+
+#: the VLE's error replies about the image itself start with this (llmland_vle.service)
+BAD_IMAGE_PREFIX = "bad image: "
 
 
 #: Most drones whose scenes one batch serves.
@@ -249,7 +252,9 @@ def caption_via_vle(bus: Bus, timeout_s: float = 10.0):  # type: ignore[no-untyp
             except MessageError as exc:
                 log.warning("bad caption reply: %s", exc)
         if refused is not None:
-            raise CaptionRefusedError(refused)
+            if refused.startswith(BAD_IMAGE_PREFIX):  # the image's fault (a 4xx)
+                raise CaptionRefusedError(refused.removeprefix(BAD_IMAGE_PREFIX))
+            raise CaptionFailedError(refused)  # the VLE's own (a 502)
         return None
 
     return caption

@@ -11,8 +11,10 @@
 Specs are cached by (normalised caption, KB version, mode). Any failure — timeout, model
 error, unparseable output, empty caption — gives ``SafetySpec.conservative`` with source
 ``"fallback"``; :meth:`SpecExtractor.extract` never raises. All model work runs on one
-worker thread, so a slow call cannot block the caller beyond ``timeout_s`` (its late
-result still lands in the cache).
+worker thread, so a slow call cannot block the caller beyond ``timeout_s``. The work goes on
+only to its next step (:mod:`.deadline`: the mention loops, before an LLM call); a result that
+was already past its last step (one LLM call in ``llm`` mode) still lands in the cache. A caption
+longer than ``max_caption_words`` tokens is answered with the fallback at once.
 """
 
 from __future__ import annotations
@@ -31,9 +33,11 @@ from typing import Any, ParamSpec, TypeVar
 from llmland_schemas.messages import Evidence, SafetySpec
 
 from .batch import run_many
+from .deadline import check as check_deadline
 from .deadline import deadline_at
 from .decide import Decider, LlmDecider
 from .kb import KbEntry
+from .mention import caption_words
 from .pipeline import Outcome, normalize_caption, run_llm, run_retrieval
 from .rag import rag_decider, run_rag, warm_pointer
 from .resources import Resources
@@ -191,7 +195,7 @@ class SpecExtractor:
     # ---------------------------------------------------------------- internal
     def _too_long(self, normalized: str) -> str | None:
         """Why a caption is refused before any work (its cost grows with its length), or None."""
-        words = len(normalized.split())
+        words = len(caption_words(normalized))  # the tokens the pipeline works on ("a/b/c" is three)
         limit = self.settings.max_caption_words
         return None if words <= limit else f"caption of {words} words is longer than max_caption_words ({limit})"
 
@@ -203,6 +207,7 @@ class SpecExtractor:
 
         def run(*args: _P.args, **kwargs: _P.kwargs) -> _R:
             with deadline_at(at):
+                check_deadline()  # it waited in the queue past its caller's time: nothing to do
                 return job(*args, **kwargs)
 
         return run

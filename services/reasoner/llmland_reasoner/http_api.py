@@ -27,7 +27,7 @@ from starlette.concurrency import run_in_threadpool
 from .engine import ReasonerEngine
 from .kb import KbEntry
 from .settings import Mode, ReasonerSettings
-from .upload import CaptionRefusedError, check_image, json_body_problem
+from .upload import CaptionFailedError, CaptionRefusedError, check_image, json_body_problem
 
 log = logging.getLogger(__name__)
 
@@ -143,7 +143,8 @@ def _add_spec_routes(app: FastAPI, engine: ReasonerEngine, caption_fn: CaptionFn
         return engine.extract(req.caption, req.mode)
 
     @app.post("/v1/spec", response_model=SafetySpec, dependencies=guarded, tags=["spec"],
-              responses={503: {"description": "no captioning (VLE) service answered"}})
+              responses={503: {"description": "no captioning (VLE) service answered"},
+                         502: {"description": "the VLE failed to caption the image"}})
     async def spec(image: Annotated[UploadFile, File(description="PNG or JPEG")]) -> SafetySpec:
         data = await image.read(settings.max_upload_bytes + 1)
         # decoding, the VLE query (up to its timeout) and the extraction block: off the event loop,
@@ -156,6 +157,8 @@ def _add_spec_routes(app: FastAPI, engine: ReasonerEngine, caption_fn: CaptionFn
             caption = caption_fn(data)
         except CaptionRefusedError as exc:
             raise HTTPException(422, f"the VLE cannot caption this image: {exc}") from None
+        except CaptionFailedError as exc:
+            raise HTTPException(502, f"the VLE failed to caption the image: {exc}") from None
         if caption is None:
             raise HTTPException(503, "no VLE service answered on llmland/@ground/vle/caption: start llmland-vle")
         result = engine.extract(caption.text)

@@ -41,9 +41,9 @@ DETERMINERS = frozenset(
     "a an the this that these those some many several few two three four five six seven eight nine ten "
     "dozens lots lot numerous various one another each every other".split()
 )
-#: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
 #: words after which a new noun phrase starts
 NOUN_PHRASE_CONJUNCTIONS = frozenset({"and", "or", "nor"})
+#: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
 FUNCTION_WORDS = frozenset(
     "a an the of on in at to by with and or nor is are was were be been being there here that this these those "
     "its it his her their them they he she we you i my our your some near next over under behind along across "

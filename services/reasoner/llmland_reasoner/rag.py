@@ -104,6 +104,8 @@ def unanimous_or_none(caption: str, hits: list[tuple[KbEntry, float]], res: Reso
     then meet the error again and report it. One policy for one caption and for a batch."""
     try:
         return unanimous_answer(caption, hits, res, found)
+    except deadline.DeadlineExceededError:
+        raise  # the caller stopped waiting: no LLM call either
     except Exception as exc:  # noqa: BLE001 - the LLM is asked instead
         log.debug("no rules answer for %r: %s", caption, exc)
         return None

@@ -66,6 +66,10 @@ class CaptionRefusedError(ValueError):
     fault (a 4xx with the VLE's message), not a missing VLE (503)."""
 
 
+class CaptionFailedError(RuntimeError):
+    """The VLE answered with its own failure (its model failed, no captions configured): a 502."""
+
+
 def check_image(data: bytes, max_bytes: int, max_pixels: int = MAX_PIXELS) -> None:
     """Raise the right 4xx for an upload that is empty, too big, not PNG/JPEG or corrupt."""
     if not data:

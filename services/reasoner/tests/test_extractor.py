@@ -193,7 +193,8 @@ def test_a_caption_longer_than_the_limit_falls_back_at_once(resources: Resources
     settings = resources.settings.model_copy(update={"max_caption_words": 10})
     extractor = SpecExtractor("rag", settings=settings, resources=resources)
     started = time.monotonic()
-    for result in (extractor.extract_detailed("a person " * 6), *extractor.extract_many(["a dog " * 6])):
+    for result in (extractor.extract_detailed("a person " * 6), *extractor.extract_many(["a dog " * 6]),
+                   extractor.extract_detailed("/".join(["crane", "seal", "cab"] * 4))):  # 12 tokens, 1 "word"
         assert result.spec.source == "fallback" and "max_caption_words" in result.error
     assert time.monotonic() - started < 0.5
     assert extractor.extract("a person walking on a road").source == "rag"

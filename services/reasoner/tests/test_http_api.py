@@ -265,14 +265,20 @@ def test_inputs_that_were_500s_are_4xx(base_url: str, engine: ReasonerEngine) ->
 
 
 def test_an_image_the_vle_refuses_is_422_with_its_message(engine: ReasonerEngine, tmp_path: Path) -> None:
-    from llmland_reasoner.upload import CaptionRefusedError
+    from llmland_reasoner.upload import CaptionFailedError, CaptionRefusedError
 
     def refuse(_img: bytes) -> Caption | None:
         raise CaptionRefusedError("image of 1x1 px is outside 8..4096 px a side")
 
+    def fail(_img: bytes) -> Caption | None:
+        raise CaptionFailedError("captioning failed: out of memory")
+
     with _Server(create_app(engine, refuse, engine.settings)) as url:
         r = httpx.post(f"{url}/v1/spec", files={"image": ("a.png", _png(tmp_path, size=1), "image/png")})
     assert r.status_code == 422 and "1x1 px" in r.json()["detail"], r.text
+    with _Server(create_app(engine, fail, engine.settings)) as url:  # the VLE's own failure is not the image's
+        r = httpx.post(f"{url}/v1/spec", files={"image": ("a.png", _png(tmp_path), "image/png")})
+    assert r.status_code == 502 and "out of memory" in r.json()["detail"], r.text
 
 
 def test_a_slow_vle_does_not_hold_other_requests(engine: ReasonerEngine, tmp_path: Path) -> None:

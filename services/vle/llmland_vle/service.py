@@ -34,6 +34,9 @@ from .worker import LatestFrameWorker
 
 log = logging.getLogger(__name__)
 
+#: error replies about the image itself (not the VLE's own failure) start with this
+BAD_IMAGE_PREFIX = "bad image: "
+
 
 def _raw(payload: bytes) -> bytes:
     return payload
@@ -99,7 +102,11 @@ class VleService:
             cap = self.captioner.caption(image, kind="object" if kind == "object" else "frame")
             query.reply(VLE_CAPTION_QUERY, encode(cap), encoding=zenoh.Encoding.APPLICATION_JSON)
             self.queries_ok += 1
-        except (ImageError, CaptionUnavailableError) as exc:
+        except ImageError as exc:  # the asker's fault: the reasoner's HTTP API answers 422 with it
+            self.queries_failed += 1
+            log.warning("caption query refused: %s", exc)
+            query.reply_err(f"{BAD_IMAGE_PREFIX}{exc}".encode())
+        except CaptionUnavailableError as exc:
             self.queries_failed += 1
             log.warning("caption query refused: %s", exc)
             query.reply_err(str(exc).encode())
