@@ -28,6 +28,7 @@ Three views of the tracks, one per use (DESIGN §6):
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 from llmland_schemas import PERSON_HARD_LIMIT_M, SEMANTIC_METHODS, CameraIntrinsics, SafetySpec, SafetySpecMessage
@@ -208,14 +209,17 @@ class WorldModel:
         # rock): the track takes the most careful spec, never the last one in. A spec reaching a
         # track only through a big object's footprint (not its own blob) may not make a
         # person-sized track less careful than it is: a hill or a crown around someone standing
-        # there says nothing about them. Across releases a fresh person reading holds too
-        # (_holds_a_person_reading).
+        # there says nothing about them. Across releases a fresh person reading holds against a
+        # neighbour's spec (_holds_a_person_reading).
         batch: dict[str, tuple[TrackedObstacle, SafetySpec]] = {}
         for s in due:
-            for track, dist in self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m),
-                                                      s.stamp_s):
+            matches = self.tracker.match_all(s.position_m, max(self.settings.spec_match_m, s.radius_m), s.stamp_s)
+            nearest = min((d for _, d in matches), default=math.inf)
+            for track, dist in matches:
                 direct = dist <= self.settings.spec_match_m
                 spec = s.spec
+                if dist > nearest and self._holds_a_person_reading(track, spec, t_s):
+                    continue  # a spec about the thing beside them (another track is nearer its position)
                 log.debug("t=%.2f spec of frame %.2f (%s %r, %s) reaches %s at %.2f m (%s; height %.2f m, moved %s)",
                           t_s, s.stamp_s, s.obj.obj_id, spec.caption, spec.label, track.track_id, dist,
                           "its blob" if direct else "the object's footprint", track.height_m, track.has_moved)
@@ -224,20 +228,20 @@ class WorldModel:
                 prev = batch.get(track.track_id)
                 batch[track.track_id] = (track, spec if prev is None else more_careful(prev[1], spec))
         for track, spec in batch.values():
-            if self._holds_a_person_reading(track, spec, t_s):
-                continue
             track.spec = AttachedSpec(spec, t_s, track.height_m)
             self.specs_applied += 1
             self.version += 1
 
     def _holds_a_person_reading(self, track: TrackedObstacle, spec: SafetySpec, t_s: float) -> bool:
-        """Whether ``track`` keeps its spec: a fresh reading that it may be a person (not stale, not
-        the reasoner's fallback; :func:`.track_views.says_person`) is not replaced by a later spec
-        that says it is not. Within one
-        release the most careful spec wins; across releases the newest used to, so a later frame
-        that captioned only the rock beside someone, its centroid within ``spec_match_m`` of their
-        track, turned the person into a rock. The person reading holds until it goes stale
-        (``spec_stale_s``, counted from when it was given), then newer readings win again."""
+        """Whether ``track`` keeps its person reading against ``spec``, a spec about the thing beside
+        it (another track is nearer the spec's position): a fresh reading that it may be a person
+        (not stale, not the reasoner's fallback; :func:`.track_views.says_person`) is not replaced
+        by a neighbour's spec that says otherwise. A later frame that captioned only the rock
+        beside someone, its centroid within ``spec_match_m`` of their track too, turned the person
+        into a rock. A spec about the track itself (it is the nearest) still replaces it: a misread
+        corrected must not stay a person (holding every person reading against every later one
+        kept VLE misreads of still things as people, and open_field seeds 26 and 41 timed out).
+        """
         held = track.spec
         return (held is not None and says_person(held.spec) and held.spec.source != "fallback"
                 and not says_person(spec) and t_s - held.applied_s <= self.settings.spec_stale_s)

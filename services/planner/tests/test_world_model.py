@@ -534,22 +534,39 @@ def test_the_coverage_is_taken_from_where_the_downward_frame_was_seen():
 def test_a_later_spec_of_the_rock_beside_someone_does_not_undo_their_person_reading():
     """Within one release the most careful spec wins; across releases the newest did: a later frame
     that captioned only the rock beside a standing person (its centroid within ``spec_match_m`` of
-    their track) turned the person into a rock, and the gate lost them. The person reading holds
-    until it goes stale; then newer readings win again."""
+    their track, but nearer the rock's) turned the person into a rock, and the gate lost them. A
+    spec about the track itself still corrects it; a stale person reading yields to a neighbour's."""
     s = PlannerSettings()
     wm = WorldModel(s, "llm-land")
-    wm.tracker.update([_blob(5.0, 0.0)], 0.0)
+    rock_blob = _blob(5.7, 0.0, h=0.5)
+    wm.tracker.update([_blob(5.0, 0.0), rock_blob], 0.0)
     wm.on_spec(_person_spec(0.0, 0.0))
-    assert len(_regions(wm, 0.0)) == 1 and wm.people(0.0)[0].label == "person"
+    wm.release_specs(0.0)
+
+    def persons(w: WorldModel, t: float) -> list[str]:
+        return [p.track_id for p in w.people(t) if p.label == "person"]
+
+    assert persons(wm, 0.0) == ["t0"]
     rock = SafetySpec(is_dynamic=False, is_human=False, z_min=0.0, buffer_m=0.5, label="rock", source="rag")
-    rock_only = SafetySpecMessage(stamp=1.0, scene=rock, latency_ms=0.0, objects=[
-        ObjectSpec(obj_id="r0", centroid_m=(5.4, 0.0, 0.25), size_m=(0.6, 0.6, 0.5), spec=rock)])
-    wm.tracker.update([_blob(5.0, 0.0)], 1.0)
-    wm.on_spec(rock_only)
+
+    def rock_at(x: float, stamp: float) -> SafetySpecMessage:
+        return SafetySpecMessage(stamp=stamp, scene=rock, latency_ms=0.0, objects=[
+            ObjectSpec(obj_id="r0", centroid_m=(x, 0.0, 0.25), size_m=(0.6, 0.6, 0.5), spec=rock)])
+
+    wm.tracker.update([_blob(5.0, 0.0), rock_blob], 1.0)
+    wm.on_spec(rock_at(5.45, 1.0))  # 0.45 m from the person's track, 0.25 m from the rock's
     wm.release_specs(1.0)
-    assert [p.label for p in wm.people(1.0)] == ["person"]
-    late = s.spec_stale_s + 1.0  # the person reading has gone stale: a newer reading wins
-    wm.tracker.update([_blob(5.0, 0.0)], late)
-    wm.on_spec(rock_only.model_copy(update={"stamp": late}))
+    assert persons(wm, 1.0) == ["t0"]
+    late = s.spec_stale_s + 1.0  # the person reading has gone stale: the neighbour's spec applies
+    wm.tracker.update([_blob(5.0, 0.0), rock_blob], late)
+    wm.on_spec(rock_at(5.45, late))
     wm.release_specs(late)
-    assert wm.people(late) == []
+    assert persons(wm, late) == []
+    wm2 = WorldModel(s, "llm-land")  # a spec about the track itself (a misread corrected) replaces it
+    wm2.tracker.update([_blob(5.0, 0.0), rock_blob], 0.0)
+    wm2.on_spec(_person_spec(0.0, 0.0))
+    wm2.release_specs(0.0)
+    wm2.tracker.update([_blob(5.0, 0.0), rock_blob], 1.0)
+    wm2.on_spec(rock_at(5.05, 1.0))
+    wm2.release_specs(1.0)
+    assert persons(wm2, 1.0) == []
