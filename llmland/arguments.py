@@ -7,6 +7,7 @@ import argparse
 import math
 import os
 import re
+import tempfile
 from pathlib import Path
 
 from llmland_schemas.messages import LATENCY_MODEL_PATTERN
@@ -62,14 +63,17 @@ def seed_list(text: str) -> list[int]:
 
 
 def writable_dir(text: str) -> str:
-    """A folder that exists and is writable, or can be created (``--out``)."""
-    path = Path(text)
+    """A folder that is writable, or can be created (``--out``): a scratch folder is made and
+    removed in the nearest folder on its path that exists (``os.access`` says yes to root even on
+    ``/proc``); nothing else is created while parsing."""
+    path = Path(text).absolute()
+    existing = next((p for p in (path, *path.parents) if p.exists()), None)
+    if existing is None or not existing.is_dir():
+        raise argparse.ArgumentTypeError(f"cannot create {text}: {existing} is not a folder")
     try:
-        path.mkdir(parents=True, exist_ok=True)
+        os.rmdir(tempfile.mkdtemp(prefix=".llmland-check-", dir=existing))
     except OSError as exc:
         raise argparse.ArgumentTypeError(f"cannot create {text}: {exc.strerror or exc}") from None
-    if not os.access(path, os.W_OK):
-        raise argparse.ArgumentTypeError(f"{text} is not writable")
     return text
 
 

@@ -55,3 +55,9 @@ def test_killing_a_service_the_stack_does_not_run_is_refused_before_it_starts(
     args = build_parser().parse_args(["land", "--method", "baseline", "--kill", "reasoner@5"])
     assert args.kill == [("reasoner", 5.0)]
     assert cli.cmd_land(args) == 2
+
+
+def test_checking_an_out_folder_creates_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "a" / "b"
+    args = build_parser().parse_args(["experiment", "exp1", "--out", str(out)])
+    assert args.out == str(out) and not (tmp_path / "a").exists() and list(tmp_path.iterdir()) == []
