@@ -325,8 +325,14 @@ class LandingLogic:
                 self.phase = Phase.TOUCHDOWN
                 return self.phase, tgt
             sink = max(0.0, -float(vel[2]))
-            if not self.gate(height, sink, around, committed=True, offset_m=horiz).open and self.climb_out_is_safer(
-                    height, sink, horiz, around):
+            gate = self.gate(height, sink, around, committed=True, offset_m=horiz)
+            if gate.open:
+                return self.phase, tgt
+            if not gate.clearance.safe:  # someone may reach the vehicle: the way out that keeps them farther
+                climb = self.climb_out_is_safer(height, sink, horiz, around)
+            else:  # only the landing disc is blocked (a thing moving onto the pad): do not land on it
+                climb = height > s.commit_height_m
+            if climb:
                 self.phase = Phase.CLIMB_OUT
                 return self.phase, hover
             return self.phase, tgt

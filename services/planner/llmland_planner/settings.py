@@ -99,6 +99,10 @@ class PlannerSettings(BaseSettings):
     descent_accel_mps2: float = 5.0
     descent_brake_mps2: float = 5.0
     descent_touchdown_speed_mps: float = 0.3
+    #: below this height (m) a descent whose landing disc became blocked (a thing moving onto the
+    #: pad, no possible person at risk) is finished rather than aborted; people are the hard
+    #: limit's (landing.py: the way out that keeps them farther)
+    commit_height_m: float = 0.6
     touchdown_height_m: float = 0.12
     #: climbing out (only when quicker out of reach than finishing: landing.py): up at this speed (m/s)
     climb_speed_mps: float = 1.5

@@ -336,3 +336,19 @@ def test_nan_inputs_keep_the_gate_shut() -> None:
     assert not logic.gate(S.cruise_altitude_m, 0.0, _around([_person(9.0, speed=math.nan, age=math.nan)],
                                                            coverage_m=50.0)).clearance.safe
     assert not logic.gate(S.cruise_altitude_m, 0.0, _around(coverage_m=math.nan)).clearance.safe
+
+
+def test_a_landing_disc_blocked_during_the_descent_is_left_by_climbing_out_unless_nearly_down() -> None:
+    """Open_field seed 3, baseline: a walker the geometry did not yet count as a possible person
+    moved onto the pad during the descent; the disc check failed with nobody counted, so both ways
+    out scored +inf and the vehicle finished (0.94 m from them). A blocked disc with no person at
+    risk climbs out above ``commit_height_m``, as before the way-out rule."""
+    logic = LandingLogic(TARGET, S)
+    logic.climbed, logic.phase, logic.commit_coverage_m = True, Phase.DESCEND, 7.0
+    onto_the_pad = [_region(0.5, top=1.7, half=0.4)]
+    for height, expected in ((2.0, Phase.CLIMB_OUT), (0.5, Phase.DESCEND)):
+        logic.phase = Phase.DESCEND
+        phase, _ = logic.update(np.array([0.0, 0.0, height]), np.array([0.0, 0.0, -2.0]), 1.0,
+                                _around(landing=onto_the_pad))
+        assert logic.last_gate is not None and logic.last_gate.clearance.safe and not logic.last_gate.disc_clear
+        assert phase == expected, height
