@@ -211,15 +211,23 @@ class LandingLogic:
             self.commit_coverage_m = coverage
         # tracks lost where they cannot have left the coverage shown at the commit keep their own
         # reachable set while the descent is under way (hard_limit.lost_inside)
-        # without the coverage assumption (require_coverage off) no track can be left to the
-        # untracked bound, however old: every possible person counts
-        recent_s = s.recent_observation_s if s.require_coverage else math.inf
         clearance = commit_clearance(self.target_m[:2], around.people, duration, self.bounds, coverage_m=coverage,
-                                     unseen_s=unseen_s, xy_margin_m=s.landing_xy_margin_m + max(0.0, offset_m),
-                                     recent_s=recent_s, lost_within_m=self.commit_coverage_m)
+                                     unseen_s=unseen_s, xy_margin_m=self._xy_margin_m(offset_m),
+                                     recent_s=self._recent_s(), lost_within_m=self.commit_coverage_m)
         clear = disc_clear(self.target_m[:2], s.landing_disc_radius_m, around.landing_regions(duration))
         self.last_gate = GateDecision(duration, clearance, clear)
         return self.last_gate
+
+    def _xy_margin_m(self, offset_m: float) -> float:
+        """The landing point's horizontal error (m) with the vehicle ``offset_m`` off the target now."""
+        return self.settings.landing_xy_margin_m + max(0.0, offset_m)
+
+    def _recent_s(self) -> float:
+        """How recently (s) a track must have been seen to count one by one. Without the coverage
+        assumption (``require_coverage`` off) no track can be left to the untracked bound, however
+        old: every possible person counts."""
+        s = self.settings
+        return s.recent_observation_s if s.require_coverage else math.inf
 
     def climb_out_is_safer(self, height_m: float, sink_mps: float, offset_m: float, around: Surroundings) -> bool:
         """Whether climbing out now keeps every counted person farther from the vehicle than
@@ -243,8 +251,7 @@ class LandingLogic:
         def margin(heights: FloatArray) -> float:
             return axis_clearance_m(self.target_m[:2], around.people, self.bounds,
                                     WAY_OUT_STEP_S * np.arange(len(heights)), heights,
-                                    xy_margin_m=s.landing_xy_margin_m + max(0.0, offset_m),
-                                    recent_s=s.recent_observation_s if s.require_coverage else math.inf,
+                                    xy_margin_m=self._xy_margin_m(offset_m), recent_s=self._recent_s(),
                                     within_m=self.commit_coverage_m)
 
         return margin(climb_h) > margin(finish_h)
