@@ -50,9 +50,10 @@ class ReasonerEngine:
         hits = self.extractor(mode).cached(captions)
         return None if hits is None else [x.spec for x in hits]
 
-    def add_entry(self, entry: KbEntry) -> KbEntry:
-        """Validated KB write, persisted to the KB file when one is configured; caches cleared."""
-        added = self.extractor().add_entry(entry, save_to=kb_write_path(self.settings))
+    def add_entry(self, entry: KbEntry, *, replace: bool = True) -> KbEntry:
+        """Validated KB write, persisted to the KB file when one is configured; caches cleared
+        (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
+        added = self.extractor().add_entry(entry, save_to=kb_write_path(self.settings), replace=replace)
         with self._lock:
             for ex in self._extractors.values():
                 ex.clear_cache()

@@ -32,9 +32,8 @@ from typing import Any, ParamSpec, TypeVar
 
 from llmland_schemas.messages import Evidence, SafetySpec
 
+from . import deadline
 from .batch import run_many
-from .deadline import check as check_deadline
-from .deadline import deadline_at
 from .decide import Decider, LlmDecider
 from .kb import KbEntry
 from .mention import caption_words
@@ -178,9 +177,11 @@ class SpecExtractor:
                 log.warning("LLM warm-up failed: %s", exc)
         self.clear_cache()
 
-    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
-        """Add a KB entry (validated, version bumped), rebuilt index; serialised with extraction."""
-        return self._worker.submit(self.resources.add_entry, entry, save_to).result()
+    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
+                  *, replace: bool = True) -> KbEntry:
+        """Add a KB entry (validated, version bumped), rebuilt index; serialised with extraction
+        (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
+        return self._worker.submit(self.resources.add_entry, entry, save_to, replace=replace).result()
 
     def clear_cache(self) -> None:
         """Forget cached specs and grounded mentions (after a KB write)."""
@@ -206,8 +207,8 @@ class SpecExtractor:
         at = time.monotonic() + self.settings.timeout_s
 
         def run(*args: _P.args, **kwargs: _P.kwargs) -> _R:
-            with deadline_at(at):
-                check_deadline()  # it waited in the queue past its caller's time: nothing to do
+            with deadline.deadline_at(at):
+                deadline.check()  # it waited in the queue past its caller's time: nothing to do
                 return job(*args, **kwargs)
 
         return run

@@ -25,7 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from starlette.concurrency import run_in_threadpool
 
 from .engine import ReasonerEngine
-from .kb import KbEntry
+from .kb import KbEntry, KbEntryExistsError
 from .settings import Mode, ReasonerSettings
 from .upload import CaptionFailedError, CaptionRefusedError, check_image, json_body_problem
 
@@ -174,14 +174,14 @@ def _add_kb_routes(app: FastAPI, engine: ReasonerEngine, guarded: list[Any]) -> 
     @app.post("/v1/kb", response_model=KbEntry, status_code=201, dependencies=guarded, tags=["kb"])
     def add_kb(entry: dict[str, Any]) -> KbEntry:
         try:
-            new = KbEntry.model_validate(entry)
-            if new.id in {e.id for e in engine.resources.kb.entries}:
-                # a write that replaced an entry could turn "pedestrian" into a bench: the category
-                # rules check the entry, not what it replaces. Changing a shipped entry is an edit
-                # of the KB file, reviewed like code.
-                raise HTTPException(409, f"KB entry {new.id!r} exists; the API adds entries, it does not "
-                                         "replace them (edit the KB file to change one)")
-            return engine.add_entry(new)
+            # replace=False: a write that replaced an entry could turn "pedestrian" into a bench
+            # (the category rules check the entry, not what it replaces); changing a shipped entry
+            # is an edit of the KB file, reviewed like code. Checked where the write happens, so
+            # two concurrent POSTs of one id cannot both pass.
+            return engine.add_entry(KbEntry.model_validate(entry), replace=False)
+        except KbEntryExistsError as exc:
+            raise HTTPException(409, f"{exc}; the API adds entries, it does not replace them "
+                                     "(edit the KB file to change one)") from None
         except ValidationError as exc:
             reasons = "; ".join(f"{'.'.join(str(x) for x in e.get('loc', ())) or 'entry'}: {e.get('msg', '')}"
                                 for e in exc.errors(include_url=False))

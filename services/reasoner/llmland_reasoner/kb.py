@@ -106,6 +106,11 @@ def _bump(version: str) -> str:
     return f"{major}.{minor}.{patch + 1}"
 
 
+class KbEntryExistsError(ValueError):
+    """An add that would replace an entry with the same id (:meth:`KnowledgeBase.add` with
+    ``replace=False``)."""
+
+
 class KnowledgeBase:
     """An in-memory, validated knowledge base."""
 
@@ -135,10 +140,19 @@ class KnowledgeBase:
     def get(self, kb_id: str) -> KbEntry:
         return self._by_id[kb_id]
 
-    def add(self, entry: KbEntry | dict[str, object]) -> KbEntry:
-        """Validate and append an entry (or replace one with the same id); bump the patch version."""
+    def add(self, entry: KbEntry | dict[str, object], *, replace: bool = True) -> KbEntry:
+        """Validate and append an entry (or replace one with the same id); bump the patch version.
+
+        Raises:
+            pydantic.ValidationError: the entry breaks the schema or a category rule.
+            KbEntryExistsError: ``replace`` is false and an entry with this id exists (checked in
+                the same call that writes, so two concurrent adds of one id cannot both succeed
+                when the writes are serialised, as the extractor's worker does).
+        """
         new = entry if isinstance(entry, KbEntry) else KbEntry.model_validate(entry)
         KbEntry.model_validate(new.model_dump())  # re-check even a pre-built model
+        if not replace and new.id in self._by_id:
+            raise KbEntryExistsError(f"KB entry {new.id!r} exists")
         kept = [e for e in self._doc.entries if e.id != new.id]
         self._doc = KbDocument(version=_bump(self._doc.version), entries=[*kept, new])
         self._by_id = {e.id: e for e in self._doc.entries}

@@ -125,9 +125,11 @@ class Resources:
         embed = self.embed.model_name if self.embed is not None else "-"
         return f"embed={embed};wordnet={self.wordnet is not None};window={WINDOW_WORDS};bonus={NAME_MATCH_BONUS}"
 
-    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None) -> KbEntry:
-        """Validate and add a KB entry (new version), optionally save the KB, rebuild the index."""
-        added = self.kb.add(entry)
+    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
+                  *, replace: bool = True) -> KbEntry:
+        """Validate and add a KB entry (new version), optionally save the KB, rebuild the index
+        (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
+        added = self.kb.add(entry, replace=replace)
         if save_to is not None:
             self.kb.save(save_to)
         self.rebuild_retriever()

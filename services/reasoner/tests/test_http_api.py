@@ -313,6 +313,38 @@ def test_the_api_does_not_replace_an_existing_kb_entry(base_url: str) -> None:
     assert httpx.get(f"{base_url}/v1/kb").json()["version"] == kb["version"]
 
 
+def test_concurrent_posts_of_one_new_id_add_it_once(base_url: str, engine: ReasonerEngine,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """The route checked "exists" before the (serialised) write: concurrent POSTs of one new id all
+    passed the check and each later write replaced the one before it. The KB's writer is slowed (as
+    a busy worker would) so that the requests surely overlap a write."""
+    kb_add = engine.resources.kb.add
+
+    def slow_add(entry: Any, **kwargs: Any) -> Any:
+        time.sleep(0.5)
+        return kb_add(entry, **kwargs)
+
+    monkeypatch.setattr(engine.resources.kb, "add", slow_add)
+    kb = httpx.get(f"{base_url}/v1/kb").json()
+    entry = dict(next(e for e in kb["entries"] if not e["is_human"] and not e["is_dynamic"]),
+                 id="race_test_shed", label="garden shed", synonyms=[], description="a garden shed")
+    codes: list[int] = []
+    ready = threading.Barrier(4)
+
+    def post(z_min: float) -> None:
+        ready.wait()
+        codes.append(httpx.post(f"{base_url}/v1/kb", json=dict(entry, z_min=z_min), timeout=60).status_code)
+
+    threads = [threading.Thread(target=post, args=(0.5 + k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert sorted(codes) == [201, 409, 409, 409], codes
+    after = httpx.get(f"{base_url}/v1/kb").json()
+    assert int(after["version"].split(".")[2]) == int(kb["version"].split(".")[2]) + 1  # one write
+
+
 def _operation(result: Ok[APIOperation[Any, Any, Any, Any]] | Err[InvalidSchema]) -> APIOperation[Any, Any, Any, Any]:
     """The operation a schema result holds; an invalid one fails the test with its error."""
     if isinstance(result, Err):

@@ -4,7 +4,7 @@ import json
 from pathlib import Path
 
 import pytest
-from llmland_reasoner.kb import KbEntry, KnowledgeBase, category_problems, default_kb_path
+from llmland_reasoner.kb import KbEntry, KbEntryExistsError, KnowledgeBase, category_problems, default_kb_path
 from pydantic import ValidationError
 
 
@@ -73,6 +73,10 @@ def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path, robot_mower
     assert len(kb) == n + 1 and kb.get("robot_mower").buffer_m == 5.0
     kb.add({**robot_mower, "z_min": 2.0})  # same id replaces
     assert len(kb) == n + 1 and kb.get("robot_mower").z_min == 2.0
+    before = kb.version
+    with pytest.raises(KbEntryExistsError):
+        kb.add({**robot_mower, "z_min": 3.0}, replace=False)
+    assert kb.version == before and kb.get("robot_mower").z_min == 2.0  # nothing written
     target = tmp_path / "sub" / "kb.json"
     kb.save(target)
     assert [p.name for p in target.parent.iterdir()] == ["kb.json"]  # no temporary left behind
