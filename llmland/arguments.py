@@ -67,8 +67,8 @@ def writable_dir(text: str) -> str:
     removed in the nearest folder on its path that exists (``os.access`` says yes to root even on
     ``/proc``); nothing else is created while parsing."""
     path = Path(text).absolute()
-    existing = next((p for p in (path, *path.parents) if p.exists()), None)
-    if existing is None or not existing.is_dir():
+    existing = next(p for p in (path, *path.parents) if p.exists())  # the root, at worst
+    if not existing.is_dir():
         raise argparse.ArgumentTypeError(f"cannot create {text}: {existing} is not a folder")
     try:
         os.rmdir(tempfile.mkdtemp(prefix=".llmland-check-", dir=existing))
@@ -79,7 +79,7 @@ def writable_dir(text: str) -> str:
 
 def writable_file(text: str) -> str:
     """A file whose folder exists (or can be created) and is writable (``--rrd``)."""
-    writable_dir(str(Path(text).parent or "."))
+    writable_dir(str(Path(text).parent))  # "." for a bare file name
     return text
 
 
