@@ -80,7 +80,11 @@ def _evaluate(model_path: str | None, out: Any) -> None:
 
     path = Path(model_path) if model_path else default_gguf_path()
     t0 = time.perf_counter()
-    llm = llama_cpp.Llama(model_path=str(path), n_ctx=256, n_threads=1, verbose=False)
+    try:
+        llm = llama_cpp.Llama(model_path=str(path), n_ctx=256, n_threads=1, verbose=False)
+    except (ValueError, OSError) as exc:  # llama-cpp-python's "Failed to load model from file", a bad path
+        out.send({"error": f"cannot load {path}: {exc}"})
+        return
     t1 = time.perf_counter()
     tokens = llm.tokenize(PROMPT.encode(), add_bos=True, special=False)
     llm.eval(tokens)
@@ -119,6 +123,8 @@ def run_check(model_path: str | None = None, timeout_s: float = TIMEOUT_S,
             f"{build_info().get('cmake_args', 'unknown')}. A build for another CPU (or a native build on an "
             "AMX Xeon) crashes like this: rebuild the portable runtime with `bash scripts/build_llama.sh`."
         )
+    if "error" in result:
+        raise RuntimeError(f"llama.cpp could not evaluate the model ({result['error']})")
     return dict(result)
 
 
