@@ -15,6 +15,7 @@ the refusal into a warning, for a build made for one machine on purpose.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
 import multiprocessing as mp
@@ -36,7 +37,8 @@ TIMEOUT_S = 120.0
 #: at ``ldtilecfg`` on AMX Xeons: issue 9); a runtime built with them is refused
 UNSAFE_FEATURES = ("AMX_INT8",)
 #: compiled-in features that make the build run only on CPUs that have them (SIGILL elsewhere)
-HOST_ONLY_FEATURES = ("AVX512", "AVX512_VBMI", "AVX512_VNNI", "AVX512_BF16", "AVX_VNNI", "AMX_INT8")
+#: (the unsafe ones are too, and are refused instead)
+HOST_ONLY_FEATURES = ("AVX512", "AVX512_VBMI", "AVX512_VNNI", "AVX512_BF16", "AVX_VNNI")
 #: environment switch: a build for this machine only was made on purpose (refusal → warning)
 ALLOW_NATIVE_ENV = "LLMLAND_ALLOW_NATIVE_LLAMA"
 
@@ -53,7 +55,7 @@ def compiled_features(system_info: str) -> set[str]:
 def portability_problems(features: set[str]) -> tuple[list[str], list[str]]:
     """``(errors, warnings)`` about a runtime compiled with ``features``."""
     unsafe = sorted(f for f in UNSAFE_FEATURES if f in features)
-    host_only = sorted(f for f in HOST_ONLY_FEATURES if f in features and f not in unsafe)
+    host_only = sorted(f for f in HOST_ONLY_FEATURES if f in features)
     errors = [f"the runtime was compiled with {', '.join(unsafe)}: llama.cpp's AMX matrix multiply segfaults "
               "on AMX Xeons (issue 9)"] if unsafe else []
     warnings = [f"the runtime was compiled with {', '.join(host_only)}: it runs only on CPUs that have "
@@ -108,10 +110,8 @@ def run_check(model_path: str | None = None, timeout_s: float = TIMEOUT_S,
     # a child that dies (a segfault, an exception) closes its end: poll says "readable" and recv
     # finds the end of the pipe, not a result
     if parent.poll(timeout_s):
-        try:
+        with contextlib.suppress(EOFError):
             result = parent.recv()
-        except EOFError:
-            result = None
     proc.join(timeout=5.0)
     if result is None:
         if proc.is_alive():
