@@ -10,7 +10,7 @@ import re
 import tempfile
 from pathlib import Path
 
-from llmland_schemas.messages import LATENCY_MODEL_PATTERN
+from llmland_schemas.messages import LATENCY_MODEL_PATTERN, SCENARIO_PATTERN
 
 
 def non_negative_int(text: str) -> int:
@@ -50,6 +50,13 @@ def latency_model(text: str) -> str:
     return text
 
 
+def scenario(text: str) -> str:
+    """``walk-in:<distance_m>,<speed_mps>`` (a scripted test on top of the seeded world)."""
+    if re.match(SCENARIO_PATTERN, text) is None:
+        raise argparse.ArgumentTypeError(f"{text!r}: use walk-in:<distance_m>,<speed_mps>, e.g. walk-in:5.5,1.5")
+    return text
+
+
 def seed_list(text: str) -> list[int]:
     """Seeds as ``1-20`` or ``1,4,7-9`` (ranges inclusive, increasing, at least one seed)."""
     seeds: list[int] = []
@@ -84,7 +91,7 @@ def writable_file(text: str) -> str:
 
 
 def existing_file(text: str) -> str:
-    """A file that exists (``--gguf``)."""
+    """A file that exists (``--gguf``, ``--llm-model``)."""
     if not Path(text).is_file():
         raise argparse.ArgumentTypeError(f"no such file: {text}")
     return text

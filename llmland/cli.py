@@ -1,4 +1,4 @@
-"""``llmland``: launch the services, fly episodes, run benchmarks (DESIGN §13)."""
+"""``llmland``: launch the services, fly episodes, run benchmarks (docs/DESIGN.md §13)."""
 
 from __future__ import annotations
 
@@ -28,6 +28,7 @@ from .arguments import (
     port,
     positive_int,
     positive_seconds,
+    scenario,
     seed_list,
     writable_dir,
     writable_file,
@@ -158,6 +159,9 @@ def cmd_up(args: argparse.Namespace) -> int:
         log.info("services up on %s for drone(s) %s: %s — send a mission with `llmland mission --world open_field "
                  "--seed 1 --drone-id %s`; Ctrl-C stops all", hub_endpoint(port), ", ".join(drones),
                  ", ".join(args.services), drones[0])
+        if "reasoner" in args.services:
+            log.info("reasoner HTTP API on %s (POST an image to /v1/spec; interactive docs at /docs)",
+                     _reasoner_http_url())
         served, next_log = SpecsServed(bus), time.monotonic() + SERVED_LOG_PERIOD_S
         logged: dict[str, int] = {}
         while not stop.wait(0.5):
@@ -170,6 +174,14 @@ def cmd_up(args: argparse.Namespace) -> int:
                 logged, next_log = counts, time.monotonic() + SERVED_LOG_PERIOD_S
         log.info("stopping; reasoner specs served per drone: %s", served.counts())
     return 0
+
+
+def _reasoner_http_url() -> str:
+    """Where the reasoner started by ``up`` serves HTTP: its own settings, from the same environment."""
+    from llmland_reasoner.settings import ReasonerSettings
+
+    settings = ReasonerSettings()
+    return f"http://{settings.http_host}:{settings.http_port}"
 
 
 def cmd_mission(args: argparse.Namespace) -> int:
@@ -236,8 +248,9 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--latency-model", type=latency_model, default=None,
                    help="lockstep: when specs take effect — measured (default for the pipeline), fixed:<ms>, "
                         "normal:<mean_ms>,<sd_ms> (fixed:50 for oracle specs)")
-    p.add_argument("--llm-model", default=None, help="a GGUF file for the reasoner (default: SmolLM2-135M)")
-    p.add_argument("--scenario", default=None,
+    p.add_argument("--llm-model", type=existing_file, default=None,
+                   help="a GGUF file for the reasoner (default: SmolLM2-135M)")
+    p.add_argument("--scenario", type=scenario, default=None,
                    help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
                         "final descent starts)")
     p.add_argument("--drone-id", default="d0")
@@ -281,7 +294,7 @@ def _add_trials_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore
 
 
 def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    exp = sub.add_parser("experiment", help="run exp1|exp2|exp3 (DESIGN §8) into a results folder")
+    exp = sub.add_parser("experiment", help="run exp1|exp2|exp3 (docs/DESIGN.md §8) into a results folder")
     exp.add_argument("experiment", choices=["exp1", "exp2", "exp3"])
     exp.add_argument("--trials", type=positive_int, default=50, help="trials per row (default 50)")
     exp.add_argument("--seed-base", type=non_negative_int, default=1, help="trial i flies seed S+i")

@@ -28,6 +28,9 @@ from llmland.cli import build_parser
     (["--log-level", "FOO", "land"], "--log-level"),
     (["land", "--kill", "planner@abc"], "not a number of seconds"),
     (["land", "--kill", "@5"], "SERVICE@SIM_S"),
+    (["land", "--scenario", "walk-in:x"], "--scenario: 'walk-in:x': use walk-in:"),
+    (["land", "--llm-model", "/nonexistent.gguf"], "--llm-model: no such file"),
+    (["trials", "--seeds", "1", "--llm-model", "/nonexistent.gguf"], "--llm-model: no such file"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
@@ -42,6 +45,15 @@ def test_good_values_parse() -> None:
     assert args.seeds == [1, 4, 7, 8, 9] and args.worlds == "urban,open_field"
     args = build_parser().parse_args(["--log-level", "debug", "land", "--latency-model", "normal:40,5"])
     assert args.log_level == "DEBUG" and args.latency_model == "normal:40,5" and args.seed == 1
+    args = build_parser().parse_args(["land", "--scenario", "walk-in:5.5,1.5"])
+    assert args.scenario == "walk-in:5.5,1.5"
+
+
+def test_up_names_the_reasoners_http_address_from_its_settings(monkeypatch: pytest.MonkeyPatch) -> None:
+    import llmland.cli as cli
+
+    monkeypatch.setenv("LLMLAND_REASONER_HTTP_PORT", "9017")
+    assert cli._reasoner_http_url() == "http://127.0.0.1:9017"
 
 
 def test_killing_a_service_the_stack_does_not_run_is_refused_before_it_starts(

@@ -329,6 +329,8 @@ ClockMode = Literal["lockstep", "realtime"]
 PerceptionSource = Literal["none", "pipeline", "oracle"]
 #: ``measured`` | ``fixed:<ms>`` | ``normal:<mean_ms>,<sd_ms>`` (DESIGN §4)
 LATENCY_MODEL_PATTERN = r"^(measured|fixed:\d+(\.\d+)?|normal:\d+(\.\d+)?,\d+(\.\d+)?)$"
+#: a scripted test scenario: ``walk-in:<distance_m>,<speed_mps>``
+SCENARIO_PATTERN = r"^walk-in:\d+(\.\d+)?,\d+(\.\d+)?$"
 
 
 class GivenSpec(Strict):
@@ -358,7 +360,7 @@ class MissionGoal(Envelope):
     latency_model: Annotated[str, Field(pattern=LATENCY_MODEL_PATTERN)] = "measured"
     #: a scripted test scenario on top of the seeded world, e.g. ``walk-in:5.5,1.5`` (a person
     #: standing 5.5 m from the target walks to it at up to 1.5 m/s once the final descent starts)
-    scenario: Annotated[str, Field(pattern=r"^walk-in:\d+(\.\d+)?,\d+(\.\d+)?$")] | None = None
+    scenario: Annotated[str, Field(pattern=SCENARIO_PATTERN)] | None = None
     #: Where the sim records this episode to Rerun (a path on the sim's host), if at all.
     rrd_path: str | None = None
 
