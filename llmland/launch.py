@@ -29,6 +29,7 @@ from typing import Any
 from llmland_schemas import Topic, alive, any_drone, drone_of
 from llmland_schemas.bus import LOOPBACK_LISTEN, Bus, ZenohSettings
 from llmland_schemas.keys import ALIVE_ANY_DRONE, ALIVE_GROUND, SHARED_SERVICES, ground_alive, validate_drone_id
+from llmland_schemas.service import LAUNCHER_PID_ENV
 
 log = logging.getLogger(__name__)
 
@@ -129,6 +130,7 @@ class Stack:
             "ZENOH_CONNECT": hub_endpoint(self.port),
             "ZENOH_LISTEN": LOOPBACK_LISTEN,
             "LLMLAND_LOG_LEVEL": self.log_level,
+            LAUNCHER_PID_ENV: str(os.getpid()),  # the service stops if this process dies
         })
         prefix = {"pilot": "REFPILOT"}.get(name, name.upper())
         env[f"LLMLAND_{prefix}_DRONE_ID"] = self.drone_id

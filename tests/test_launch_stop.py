@@ -88,3 +88,44 @@ def test_outside_the_main_thread_nothing_is_deferred() -> None:
     t.start()
     t.join()
     assert seen == [signal.getsignal(signal.SIGTERM)]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] if Path(f"/proc/{pid}").exists() else "X"
+    return state != "Z"
+
+
+def test_services_stop_when_their_launcher_is_killed_outright(tmp_path: Path) -> None:
+    """SIGKILL leaves the CLI no chance to stop its services: each watches its launcher and stops
+    itself (before, a test that timed out left a sim and a planner running for over an hour)."""
+    import subprocess
+
+    from tests.conftest import BIN, REPO
+
+    log = (tmp_path / "up.log").open("w+")
+    cli = subprocess.Popen([str(BIN / "llmland"), "up", "--services", "planner", "--port", str(launch.free_port())],
+                           stdout=log, stderr=log, cwd=REPO)
+    try:
+        deadline = time.monotonic() + 60.0
+        while "services up" not in Path(log.name).read_text():
+            assert cli.poll() is None and time.monotonic() < deadline, Path(log.name).read_text()[-2000:]
+            time.sleep(0.2)
+        children = [int(p) for p in Path(f"/proc/{cli.pid}/task/{cli.pid}/children").read_text().split()]
+        assert children, "the planner is not the CLI's child"
+        cli.kill()
+        cli.wait()
+        deadline = time.monotonic() + 15.0
+        while any(_alive(p) for p in children) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        left = [p for p in children if _alive(p)]
+        for p in left:
+            os.kill(p, signal.SIGKILL)
+        assert not left, "a service outlived its SIGKILLed launcher"
+    finally:
+        if cli.poll() is None:
+            cli.kill()
+        log.close()

@@ -25,7 +25,7 @@ from llmland_schemas import (
 )
 from llmland_schemas.bus import Bus
 from llmland_schemas.frames import CameraFrame, decode_frame
-from llmland_schemas.service import configure_logging, shutdown_event
+from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
 
 from .planner import Planner
 from .settings import PlannerSettings
@@ -175,6 +175,7 @@ class PlannerService:
 
 def main() -> None:
     configure_logging()
+    watch_launcher()
     settings = PlannerSettings()
     stop = shutdown_event()
     with Bus() as bus:

@@ -11,7 +11,7 @@ import logging
 import uvicorn
 from llmland_schemas.bus import Bus
 from llmland_schemas.keys import ground_alive
-from llmland_schemas.service import configure_logging
+from llmland_schemas.service import configure_logging, watch_launcher
 
 from .bus_service import ReasonerBusService, caption_via_vle
 from .engine import ReasonerEngine, kb_write_path
@@ -23,6 +23,7 @@ log = logging.getLogger("llmland.reasoner")
 
 def main() -> None:
     configure_logging()
+    watch_launcher()
     settings = ReasonerSettings()
     if settings.kb_path is None and kb_write_path(settings).exists():
         settings = settings.model_copy(update={"kb_path": kb_write_path(settings)})  # earlier API writes

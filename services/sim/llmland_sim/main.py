@@ -44,7 +44,7 @@ from llmland_schemas import (
 )
 from llmland_schemas.bus import Bus
 from llmland_schemas.frames import CameraFrame, encode_frame
-from llmland_schemas.service import configure_logging, shutdown_event
+from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
 
 from .mailbox import CommandMailbox
 from .perception_clock import LatencyModel, PerceptionClock
@@ -348,6 +348,7 @@ class Schedule:
 
 def main() -> None:
     configure_logging()
+    watch_launcher()
     settings = SimSettings()
     stop = shutdown_event()
     with Bus() as bus:

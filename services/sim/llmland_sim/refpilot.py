@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from llmland_schemas import ControlCommand, MissionGoal, Topic, VehicleState, alive, key
 from llmland_schemas.bus import Bus
-from llmland_schemas.service import configure_logging, shutdown_event
+from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from .vehicle import DEFAULT_PARAMS, QuadParams, ReferencePositionController
@@ -76,6 +76,7 @@ class LandingPilot:
 
 def main() -> None:
     configure_logging()
+    watch_launcher()
     settings = RefPilotSettings()
     stop = shutdown_event()
     d = settings.drone_id

@@ -18,7 +18,7 @@ import logging
 import sys
 
 from llmland_schemas.bus import Bus
-from llmland_schemas.service import configure_logging, shutdown_event
+from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
 
 from . import bench
 from .training import cli as training_cli
@@ -35,6 +35,7 @@ def serve(_args: argparse.Namespace | None = None) -> int:
     from .settings import VleSettings
 
     configure_logging()
+    watch_launcher()
     settings = VleSettings()
     stop = shutdown_event()
     with Bus() as bus:

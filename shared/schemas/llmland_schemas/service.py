@@ -6,6 +6,7 @@ import logging
 import os
 import signal
 import threading
+import time
 
 
 def configure_logging(level: str | None = None) -> None:
@@ -27,3 +28,32 @@ def shutdown_event() -> threading.Event:
     signal.signal(signal.SIGTERM, _handler)
     signal.signal(signal.SIGINT, _handler)
     return stop
+
+
+#: set by ``llmland``'s launcher to its own pid in every service it starts
+LAUNCHER_PID_ENV = "LLMLAND_LAUNCHER_PID"
+#: seconds between two looks at whether the launcher is still this process's parent
+LAUNCHER_POLL_S = 0.5
+
+
+def watch_launcher(poll_s: float = LAUNCHER_POLL_S) -> threading.Thread | None:
+    """Stop this service (SIGTERM to itself, so its own clean shutdown runs) once the ``llmland``
+    process that launched it is gone, even if that one was SIGKILLed and could not stop it.
+
+    Only where ``LLMLAND_LAUNCHER_PID`` names this process's parent (the launcher sets it): a
+    service started by hand, by compose or by systemd is never tied to anyone. Returns the
+    watching thread (a daemon), or ``None`` when there is nothing to watch."""
+    launcher = os.environ.get(LAUNCHER_PID_ENV, "")
+    if not launcher.isdigit() or int(launcher) != os.getppid():
+        return None
+
+    def watch() -> None:
+        while os.getppid() == int(launcher):
+            time.sleep(poll_s)
+        logging.getLogger(__name__).warning("launcher %s is gone: shutting down", launcher)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    thread = threading.Thread(target=watch, name="launcher-watch", daemon=True)
+    thread.start()
+    return thread
+
