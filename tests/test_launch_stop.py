@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import threading
 import time
 from collections.abc import Iterator
@@ -16,6 +17,8 @@ import pytest
 
 from llmland import launch
 from llmland.launch import Stack, raise_keyboard_interrupt, stop_signals_deferred
+
+from .conftest import BIN, REPO
 
 #: a service that ignores SIGTERM, so only the stop's SIGKILL after its grace period ends it
 STUBBORN_SERVICE = """
@@ -91,21 +94,16 @@ def test_outside_the_main_thread_nothing_is_deferred() -> None:
 
 
 def _alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie, exited but not yet reaped by init, does not)."""
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
         return False
-    state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] if Path(f"/proc/{pid}").exists() else "X"
-    return state != "Z"
 
 
 def test_services_stop_when_their_launcher_is_killed_outright(tmp_path: Path) -> None:
     """SIGKILL leaves the CLI no chance to stop its services: each watches its launcher and stops
     itself (before, a test that timed out left a sim and a planner running for over an hour)."""
-    import subprocess
-
-    from tests.conftest import BIN, REPO
-
     log = (tmp_path / "up.log").open("w+")
     cli = subprocess.Popen([str(BIN / "llmland"), "up", "--services", "planner", "--port", str(launch.free_port())],
                            stdout=log, stderr=log, cwd=REPO)

@@ -46,14 +46,14 @@ def watch_launcher(poll_s: float = LAUNCHER_POLL_S) -> threading.Thread | None:
     launcher = os.environ.get(LAUNCHER_PID_ENV, "")
     if not launcher.isdigit() or int(launcher) != os.getppid():
         return None
+    launcher_pid = int(launcher)
 
     def watch() -> None:
-        while os.getppid() == int(launcher):
+        while os.getppid() == launcher_pid:
             time.sleep(poll_s)
-        logging.getLogger(__name__).warning("launcher %s is gone: shutting down", launcher)
+        logging.getLogger(__name__).warning("launcher %d is gone: shutting down", launcher_pid)
         os.kill(os.getpid(), signal.SIGTERM)
 
     thread = threading.Thread(target=watch, name="launcher-watch", daemon=True)
     thread.start()
     return thread
-
