@@ -16,11 +16,11 @@ import math
 import re
 
 import numpy as np
+from llmland_schemas.messages import SCENARIO_PATTERN
 
 from .actors import KinematicActor, wrap_angle
 from .worlds import World
 
-SCENARIO_PATTERN = r"^walk-in:\d+(\.\d+)?,\d+(\.\d+)?$"
 #: the descent has started once the vehicle sinks faster than this (m/s) ...
 TRIGGER_SINK_MPS = 0.5
 #: ... lower than this (m) above the target
