@@ -10,8 +10,9 @@ grounding is keyed by everything it depends on:
 - the settings the grounding reads: the embedding model's name (similarities), whether WordNet
   readings are looked up, and the grounding constants (window length, name-match bonus);
 - the mention itself: its window (the words that ground it), its text, class, source and KB id
-  (what named it), and the two context flags taken from the rest of the caption: parked
-  (a stationary cue belongs to it) and ridden (a vehicle or bicycle is named next to a person).
+  (what named it), and the three context flags taken from the rest of the caption: parked
+  (a stationary cue belongs to it), ridden (a vehicle or bicycle is named next to a person) and
+  astride (the caption puts the person on it: "a boy on a dirt bike").
 
 What a mention is *in its caption* (present, negated, depicted) is decided before the cache
 (only present mentions are grounded), and what the LLM decides about its readings is decided
@@ -35,7 +36,7 @@ if TYPE_CHECKING:
 #: Cached groundings kept (least recently used dropped first); a few hundred bytes each.
 DEFAULT_MENTION_CACHE_SIZE = 16384
 
-MentionKey = tuple[str, str, str, str, str, str, str, bool, bool]
+MentionKey = tuple[str, str, str, str, str, str, str, bool, bool, bool]
 
 
 @dataclass(frozen=True)
@@ -66,13 +67,14 @@ class MentionCache:
         self.hits = 0
         self.misses = 0
 
-    def key(self, kb: KnowledgeBase, found: Found, window: str, parked: bool, ridden: bool) -> MentionKey:
+    def key(self, kb: KnowledgeBase, found: Found, window: str, parked: bool, ridden: bool,
+            astride: bool = False) -> MentionKey:
         ident = (id(kb), kb.version)
         digest = self._digests.get(ident)
         if digest is None:
             digest = self._digests[ident] = kb_digest(kb)
         return (digest, self.settings_key, window, found.text, found.word_class, found.source,
-                found.kb_id or "", parked, ridden)
+                found.kb_id or "", parked, ridden, astride)
 
     def get(self, key: MentionKey) -> CachedGrounding | None:
         with self._lock:

@@ -51,13 +51,29 @@ FUNCTION_WORDS = frozenset(
     "outside toward towards against upon among amongst via per than then also very too no not without "
     "has have had do does did can could will would may might must shall should who whom whose which what "
     "where when why how all both each every any few many much more most other such only own same so just "
-    "away back together front top side middle left right far close".split()
+    "away back together front top side middle left right far close nobody noone".split()
 )
 #: Nouns that count what follows "of" ("a couple of playgrounds", "lots of cars"): not mentions.
 QUANTIFIERS = frozenset(
     "couple pair lot lots number bunch dozen dozens handful set series row rows line lines kind kinds sort "
     "sorts variety plenty piece pieces part parts rest majority".split()
 )
+#: Words that name a person without a noun: a pronoun subject ("he is lying on the grass") or an
+#: indefinite one ("someone", "everybody"). Not "her" (a possessive as often: "a woman and her
+#: dog"), "they"/"it" (people or things alike), nor "anyone"/"anybody", which stand mostly where
+#: no one is ("there isn't anyone on the field"): the rest of the caption decides there.
+PERSON_PRONOUNS = frozenset("he she him someone somebody everyone everybody".split())
+#: Adjectives that say a place is full of people ("a crowded beach", "a bustling market"): the
+#: crowd is there though no noun names it. Not "busy" (a busy road is traffic: vehicles or people).
+#: Not when they qualify things ("crowded buildings": dense) or say what crowds the place
+#: ("crowded with cars": the cars are the mention), :data:`CROWDED_BY`.
+CROWD_ADJECTIVES = frozenset("crowded overcrowded bustling thronged populated".split())
+CROWDED_BY = frozenset("with by together".split())
+#: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
+_PLACE_CLASSES = frozenset({"terrain", "unknown"})
+#: Words that may stand between a collective noun's "of" and what it counts ("a family of wild
+#: ducks", "a herd of black and white cows"), besides determiners and adjectives.
+COLLECTIVE_GAP = 3
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
 PARKED = frozenset({"parked", "docked", "moored"})
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
@@ -119,6 +135,9 @@ class MentionFinder:
                 if words:
                     self._surface.setdefault(words, entry)
                     self._lemmas.setdefault(self._lemma_key(words), entry)
+        # the KB entries a pronoun and a crowd adjective stand for (None: a KB without them)
+        self._person = self._surface.get(("person",))
+        self._crowd = self._surface.get(("crowd",)) or self._person
 
     def _lemma_key(self, words: Sequence[str]) -> tuple[str, ...]:
         return (*words[:-1], self.wordnet.lemma(words[-1]))
@@ -161,6 +180,8 @@ class MentionFinder:
         if i == 0 or not self.wordnet.mostly_verb(words[i]):
             return False
         prev = words[i - 1]
+        if prev in PERSON_PRONOUNS:
+            return True  # "she walks her dog"
         if prev in FUNCTION_WORDS or prev in DETERMINERS or not prev.isalpha():
             return False
         return self._kb_match(words, i - 1) is not None or (
@@ -170,6 +191,8 @@ class MentionFinder:
         """The lexical unit starting at ``i``: (length, class, source, kb id), or None."""
         if words[i] in IMAGE_NOUNS:
             return None
+        if words[i] in PERSON_PRONOUNS:
+            return self._implied_person(words[i])
         kb = self._kb_match(words, i)
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
             return None
@@ -187,6 +210,14 @@ class MentionFinder:
                 cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
         return None
+
+    def _implied_person(self, word: str) -> tuple[int, str, Source, str | None] | None:
+        """A person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective
+        (:data:`CROWD_ADJECTIVES`): the KB's person or crowd entry, else WordNet's person class."""
+        if word not in PERSON_PRONOUNS and word not in CROWD_ADJECTIVES:
+            return None
+        entry = self._person if word in PERSON_PRONOUNS else self._crowd
+        return (1, entry.category, "kb", entry.id) if entry is not None else (1, "person", "wordnet", None)
 
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
         """A WordNet two-word noun ("bus stop", "car park") that names a physical thing."""
@@ -224,7 +255,7 @@ class MentionFinder:
                 i += 1
             else:
                 i += 1
-        mentions = self._heads(units)
+        mentions = self._with_crowds(words, self._without_collectives(words, self._heads(units)))
         mentions = self._mark_depicted(words, mentions)
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
@@ -250,6 +281,50 @@ class MentionFinder:
                 continue
             kept.append(unit)
         return kept
+
+    def _without_collectives(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Drop a collective noun that counts what follows its "of" ("a family of geese", "a mob of
+        kangaroos", "a crew of workers"): the counted mention says what is there, while the
+        collective's own classes (a family, a mob: people) would misname it. Only a WordNet
+        noun with a group sense, only when a person, animal or vehicle follows within
+        :data:`COLLECTIVE_GAP` words of determiners or adjectives ("a family of four having a
+        picnic" keeps the family)."""
+        out: list[Found] = []
+        for k, m in enumerate(mentions):
+            nxt = mentions[k + 1] if k + 1 < len(mentions) else None
+            if (m.source == "wordnet" and nxt is not None and nxt.word_class in _LIVING_OR_VEHICLE
+                    and m.end < len(words) and words[m.end] == "of"
+                    and 0 <= nxt.start - m.end - 1 <= COLLECTIVE_GAP
+                    and all(self._modifier(w) for w in words[m.end + 1 : nxt.start])
+                    and any(sense.group for sense in self.wordnet.senses(self.wordnet.lemma(m.text.split()[-1])))):
+                continue
+            out.append(m)
+        return out
+
+    def _with_crowds(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Add the crowd a :data:`CROWD_ADJECTIVES` word implies ("a crowded beach", "the square is
+        bustling"), unless what crowds the place follows it ("crowded with cars": that mention
+        says it) or it qualifies things, not a place: a plural noun other than a place
+        ("crowded buildings", "crowded houses": dense)."""
+        at = {m.start: m for m in mentions}
+        added: list[Found] = []
+        for j, word in enumerate(words):
+            if word not in CROWD_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY):
+                continue
+            nxt = at.get(j + 1)
+            if nxt is not None and nxt.word_class not in _PLACE_CLASSES and self._plural(nxt.text):
+                continue
+            unit = self._implied_person(word)
+            assert unit is not None
+            added.append(Found(j, j + 1, word, unit[1], unit[2], unit[3]))
+        return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
+
+    def _plural(self, text: str) -> bool:
+        last = text.split()[-1]
+        return self.wordnet.lemma(last) != last
+
+    def _modifier(self, word: str) -> bool:
+        return word in DETERMINERS or word == "and" or word.isdigit() or self.wordnet.is_adjective(word)
 
     def _mark_depiction_modifiers(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         """"a toy car", "an inflatable dinosaur"; "a dog on a poster", "a man in a painting"."""

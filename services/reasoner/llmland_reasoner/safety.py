@@ -37,7 +37,7 @@ from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, CONSERVATIVE_Z_MIN_M
 from .grounding import NameIndex
 from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .lexicon import CLASS_WORDS, WordNet
-from .mention_cache import CachedGrounding, MentionCache
+from .mention_cache import CachedGrounding, MentionCache, MentionKey
 from .mentions import Found, tokenize
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
@@ -158,18 +158,23 @@ def window(words: Sequence[str], found: Found) -> str:
     return " ".join(words[found.start : max(found.end, found.start + WINDOW_WORDS)])
 
 
-def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bool = False) -> list[KbEntry]:
+def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bool = False,
+               astride: bool = False) -> list[KbEntry]:
     """The KB entries a mention may be grounded in: its class's; for a vehicle the moving ones,
     or the parked ones when its window says it is parked; for a place the KB does not name,
     plain ground (water and rocks only by name); for a person the riders (a person
-    class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it."""
+    class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it, and
+    only the riders when the caption puts the person on it (``astride``: "a boy on a dirt bike")."""
     categories = CLASS_CATEGORIES.get(found.word_class, ())
     entries = [e for e in kb.entries if e.category in categories]
     if found.word_class == "terrain" and found.source == "wordnet":
         entries = [e for e in entries if e.buffer_m == 0.0] or entries  # a place the KB lacks is ground
-    if found.word_class == "person" and not ridden:
+    if found.word_class == "person":
         floor = MIN_BUFFER_M["person"]
-        entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
+        if astride:
+            entries = [e for e in entries if e.buffer_m > floor] or entries
+        elif not ridden:
+            entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
     if found.word_class == "vehicle":
         entries = [e for e in entries if e.is_dynamic != parked] or entries
     return entries
@@ -177,12 +182,32 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
 
 #: Named wheeled things a person can ride (KB ids outside the vehicle class).
 RIDDEN_IDS = frozenset({"bicycle"})
+#: The KB's two-wheelers, whose rider is the KB's cyclist (5 m: "a person riding a bicycle or
+#: motorbike"); a person on a skateboard, a boat or a bus is not put among the riders by rule.
+TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
+
+
+#: Words that put a person on the vehicle or bicycle named after them ("a boy on a dirt bike",
+#: "a man riding a moped"): then the person is its rider, whatever the window resembles most.
+RIDING_CUES = frozenset("on riding rides ride rode astride atop aboard onboard mounted".split())
+
+
+def _rideable(m: Found) -> bool:
+    return m.status == "present" and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS)
 
 
 def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
     """Whether a vehicle or a bicycle is named within the person's window ("a boy riding his bicycle")."""
-    return any(person.end <= m.start < person.start + WINDOW_WORDS
-               and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS) for m in mentions)
+    return any(person.end <= m.start < person.start + WINDOW_WORDS and _rideable(m) for m in mentions)
+
+
+def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
+    """Whether the caption puts the person on the next thing it names, a two-wheeler
+    (:data:`TWO_WHEELER_IDS`) within the person's window, with a :data:`RIDING_CUES` word
+    between them."""
+    nxt = min((m for m in mentions if m.start >= person.end), key=lambda m: m.start, default=None)
+    return (nxt is not None and nxt.start < person.start + WINDOW_WORDS and nxt.status == "present"
+            and nxt.kb_id in TWO_WHEELER_IDS and any(w in RIDING_CUES for w in words[person.end : nxt.start]))
 
 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:
@@ -205,25 +230,38 @@ def _best(pool: Sequence[KbEntry], query: np.ndarray | None, names: NameIndex, k
     return best, float(scores[best])
 
 
-def _context(caption: str, mentions: Sequence[Found]) -> tuple[list[Found], list[str], list[bool], list[bool]]:
-    """The present mentions, each one's window and its parked and ridden flags."""
+@dataclass(frozen=True)
+class _Context:
+    """The present mentions of a caption, each one's window and its parked, ridden and astride flags."""
+
+    present: list[Found]
+    texts: list[str]
+    parked: list[bool]
+    ridden: list[bool]
+    astride: list[bool]
+
+    def key(self, cache: MentionCache, kb: KnowledgeBase, k: int) -> MentionKey:
+        return cache.key(kb, self.present[k], self.texts[k], self.parked[k], self.ridden[k], self.astride[k])
+
+    def pool(self, kb: KnowledgeBase, k: int) -> list[KbEntry]:
+        return candidates(kb, self.present[k], self.parked[k], self.ridden[k], self.astride[k])
+
+
+def _context(caption: str, mentions: Sequence[Found]) -> _Context:
     words = tokenize(caption)
     present = [m for m in mentions if m.status == "present"]
-    texts = [window(words, m) for m in present]
-    parked = [_parked(words, m, mentions) for m in present]
-    ridden = [_ridden(m, mentions) for m in present]
-    return present, texts, parked, ridden
+    return _Context(present, [window(words, m) for m in present], [_parked(words, m, mentions) for m in present],
+                    [_ridden(m, mentions) for m in present], [_astride(words, m, mentions) for m in present])
 
 
 def uncached_windows(caption: str, mentions: Sequence[Found], kb: KnowledgeBase,
                      cache: MentionCache | None) -> list[str]:
     """The windows :func:`ground_mentions` may have to embed (those of mentions not in
     ``cache``): a batch prefetches them in one embedding call."""
-    present, texts, parked, ridden = _context(caption, mentions)
+    ctx = _context(caption, mentions)
     if cache is None:
-        return texts
-    return [texts[k] for k, m in enumerate(present)
-            if not cache.has(cache.key(kb, m, texts[k], parked[k], ridden[k]))]
+        return ctx.texts
+    return [ctx.texts[k] for k in range(len(ctx.present)) if not cache.has(ctx.key(cache, kb, k))]
 
 
 def ground_mentions(
@@ -232,11 +270,12 @@ def ground_mentions(
 ) -> list[Grounded]:
     """Ground every present mention, and the other readings of each (when ``wordnet`` is
     given); one batched embedding call for all windows not already grounded in ``cache``."""
-    present, texts, parked, ridden = _context(caption, mentions)
-    keys = [] if cache is None else [cache.key(kb, m, texts[k], parked[k], ridden[k]) for k, m in enumerate(present)]
+    ctx = _context(caption, mentions)
+    present, texts, parked = ctx.present, ctx.texts, ctx.parked
+    keys = [] if cache is None else [ctx.key(cache, kb, k) for k in range(len(present))]
     known = [None] * len(present) if cache is None else [cache.get(k) for k in keys]
     todo_k = [k for k in range(len(present)) if known[k] is None]
-    pools = {k: candidates(kb, present[k], parked[k], ridden[k]) for k in todo_k}
+    pools = {k: ctx.pool(kb, k) for k in todo_k}
     readings = {k: other_readings(present[k], wordnet) if wordnet is not None else ((), {}) for k in todo_k}
     todo = [k for k in todo_k if len(pools[k]) > 1 or readings[k][1]]
     vectors = names.phrases([texts[k] for k in todo]) if todo else []

@@ -102,3 +102,22 @@ def test_the_llm_decisions_add_care_on_the_senses_set(
     assert rag.unsafe < min(retrieval.unsafe, top1.unsafe) and rag.decisions_right is not None
     assert retrieval.decisions_right is not None and top1.decisions_right is not None
     assert rag.decisions_right > max(retrieval.decisions_right, top1.decisions_right)
+
+
+def test_wording_set_is_apart_and_labelled() -> None:
+    cases = load_cases("wording")
+    assert len(cases) >= 300 and {c.split for c in cases} == {"dev", "heldout"}
+    assert {c.kind for c in cases} == {"person", "animal", "vehicle", "static", "ground"}
+    others = {c.caption.lower() for name in ("dev", "eval", "public", "senses") for c in load_cases(name)}
+    assert not others & {c.caption.lower() for c in cases}
+
+
+def test_wording_set_floors(resources: Resources, record_property: Callable[[str, object], None]) -> None:
+    """Wordings that misled the rules (``data/WORDING.md``): a regression guard at the figures
+    measured when the kinds found on ``wording:dev`` were fixed (README)."""
+    for split, right, unsafe in (("dev", 147, 20), ("heldout", 104, 16)):
+        report = evaluate("rag", f"wording:{split}", resources=resources)
+        record_property(f"rag wording:{split}", report.model_dump(exclude={"misses"}))
+        print(_summary(report, f"rag wording:{split}"), "unsafe", report.unsafe)
+        assert report.fallbacks == 0
+        assert round(report.acc_both * report.n) >= right and report.unsafe <= unsafe, report.misses

@@ -22,6 +22,8 @@ def test_key_holds_kb_content_settings_mention_and_context(robot_mower: dict[str
     assert base != MentionCache("embed=b").key(kb, MAN, "man walking on a", False, False)  # settings
     assert base != cache.key(kb, MAN, "man riding a bike", False, False)  # window
     assert base != cache.key(kb, MAN, "man walking on a", False, True)  # ridden
+    assert cache.key(kb, MAN, "man on a moped", False, True) != cache.key(kb, MAN, "man on a moped", False, True,
+                                                                          astride=True)
     assert base != cache.key(kb, replace(MAN, word_class="animal"), "man walking on a", False, False)
     version = kb.version
     kb.add(robot_mower)  # a KB write: new version and content

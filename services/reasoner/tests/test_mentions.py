@@ -100,3 +100,37 @@ def test_instruction_like_text_is_only_more_words(finder: MentionFinder, caption
 
 def test_tokens_keep_hyphens_commas_and_fold_possessives() -> None:
     assert tokenize("People's man-made lake, 2 dogs") == ["people", "man-made", "lake", ",", "2", "dogs"]
+
+
+@pytest.mark.parametrize(("caption", "expected"), [
+    # a collective noun counts what follows its "of": the counted mention says what is there
+    ("a family of geese crossing a road", {"geese": "animal", "road": "terrain"}),
+    ("a mob of kangaroos on a dirt road", {"kangaroos": "animal", "dirt road": "terrain"}),
+    ("a troop of monkeys on a wall", {"monkeys": "animal", "wall": "structure"}),
+    ("a pack of wild dogs", {"wild dogs": "animal"}),
+    ("a herd of black and white cows", {"cows": "animal"}),
+    ("a crew of workers", {"workers": "person"}),
+    # ... only then: "of four" counts nobody, so the family stays
+    ("a family of four having a picnic", {"family": "person", "picnic": "terrain"}),
+])
+def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, caption: str,
+                                                     expected: dict[str, str]) -> None:
+    assert present(finder.find(caption)) == expected
+
+
+@pytest.mark.parametrize(("caption", "expected"), [
+    # people implied by a pronoun or by an adjective that says a place is full of them
+    ("he is lying on the grass next to a bicycle", {"he": "person", "grass": "terrain", "bicycle": "structure"}),
+    ("she walks her dog along the river", {"she": "person", "dog": "animal", "river": "terrain"}),
+    ("everybody is gathered on the rooftop", {"everybody": "person", "rooftop": "terrain"}),
+    ("an overhead shot of a crowded beach", {"crowded": "person", "beach": "terrain"}),
+    ("the market square is bustling", {"market square": "structure", "bustling": "person"}),
+    ("crowded streets of a city", {"crowded": "person", "streets": "terrain", "city": "terrain"}),
+    # not when the adjective says how dense things are, or names what crowds the place
+    ("many houses and crowded buildings", {"houses": "structure", "buildings": "structure"}),
+    ("a street crowded with cars", {"street": "terrain", "cars": "vehicle"}),
+    # "nobody" says no one is there, like "no one"
+    ("nobody on the pier", {"pier": "object"}),
+])
+def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
+    assert present(finder.find(caption)) == expected

@@ -92,3 +92,22 @@ def test_the_single_answer_ablation(resources: Resources) -> None:
         assert ex.extract("a tree and a child").mentions == []
     finally:
         ex.close()
+
+
+@pytest.mark.parametrize(("caption", "label"), [
+    # a person the caption puts on a two-wheeler is its rider, whatever the window resembles
+    ("a boy on a dirt bike jumping a mound", "cyclist"),
+    ("a delivery rider on a moped weaving through traffic", "cyclist"),
+    ("a girl riding her bicycle down the lane", "cyclist"),
+])
+def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, caption: str, label: str) -> None:
+    spec = extractor.extract(caption)
+    assert spec.label == label and spec.buffer_m >= 5.0 and spec.is_dynamic, spec
+
+
+@pytest.mark.parametrize("caption", [
+    "a man riding a skateboard down a ramp",  # not a two-wheeler: the KB's skateboarder
+    "a young adult riding a boat on a lake",  # a boat's passenger is no cyclist
+])
+def test_riding_something_else_is_not_cycling(extractor: SpecExtractor, caption: str) -> None:
+    assert extractor.extract(caption).label != "cyclist"
