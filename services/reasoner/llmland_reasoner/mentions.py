@@ -74,6 +74,8 @@ _PLACE_CLASSES = frozenset({"terrain", "unknown"})
 #: Words that may stand between a collective noun's "of" and what it counts ("a family of wild
 #: ducks", "a herd of black and white cows"), besides determiners and adjectives.
 COLLECTIVE_GAP = 3
+#: The classes a two-letter word may name after a determiner ("an ox", "a parked RV").
+SHORT_NOUN_CLASSES = frozenset({"animal", "vehicle"})
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
 PARKED = frozenset({"parked", "docked", "moored"})
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
@@ -165,8 +167,11 @@ class MentionFinder:
 
     def _is_wn_noun(self, words: Sequence[str], i: int) -> bool:
         word = words[i]
-        if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha() or len(word) < 3:
+        if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha():
             return False
+        if len(word) < 3:  # "an ox", "an RV"; not "ai" or "pa" wherever they stand
+            return (i > 0 and words[i - 1] in DETERMINERS
+                    and self.wordnet.noun_class(self.wordnet.lemma(word)) in SHORT_NOUN_CLASSES)
         if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
             return False  # "walking", "parked": verbs and participles, unless "a crossing"
         if self._verb_here(words, i):
@@ -220,13 +225,20 @@ class MentionFinder:
         return (1, entry.category, "kb", entry.id) if entry is not None else (1, "person", "wordnet", None)
 
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
-        """A WordNet two-word noun ("bus stop", "car park") that names a physical thing."""
-        if i + 1 >= len(words) or words[i] in FUNCTION_WORDS or words[i + 1] in FUNCTION_WORDS:
-            return None
-        cls = self.wordnet.noun_class(f"{words[i]} {self.wordnet.lemma(words[i + 1])}")
-        if cls is None or cls == "abstract":  # "horse race", "car crash": events keep their nouns
-            return None
-        return 2, cls
+        """A WordNet noun of two or three words ("bus stop", "car park", "sport utility vehicle")
+        that names a physical thing, the longest first; captions often write without the hyphen
+        WordNet has ("hot air balloon": "hot-air balloon", "go kart": "go-kart")."""
+        for n in (3, 2):
+            span = words[i : i + n]
+            if len(span) < n or any(w in FUNCTION_WORDS for w in span):
+                continue
+            *head, last = span
+            last = self.wordnet.lemma(last)
+            names = [" ".join([*head, last]), "-".join(head) + " " + last if n == 3 else "-".join([*head, last])]
+            cls = next((c for c in map(self.wordnet.noun_class, names) if c is not None), None)
+            if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
+                return n, cls
+        return None
 
     def _is_unknown_head(self, words: Sequence[str], i: int) -> bool:
         word = words[i]

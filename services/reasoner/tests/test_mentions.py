@@ -134,3 +134,15 @@ def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, capt
 ])
 def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
+
+
+@pytest.mark.parametrize(("caption", "expected"), [
+    # WordNet's three-word and hyphenated names, written as captions write them
+    ("a hot air balloon drifting over vineyards", {"hot air balloon": "vehicle", "vineyards": "vegetation"}),
+    ("a sport utility vehicle on the road", {"sport utility vehicle": "vehicle", "road": "terrain"}),
+    # two-letter nouns after a determiner, only as animals or vehicles
+    ("an RV parked at a campsite", {"rv": "vehicle", "campsite": "terrain"}),
+    ("AI generated image of a park", {"park": "terrain"}),
+])
+def test_compound_and_short_names(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
+    assert present(finder.find(caption)) == expected
