@@ -6,10 +6,11 @@ and the grounding weight were chosen on. ``data/captions_public.jsonl`` holds ca
 real captioners and people wrote (sources in ``data/PUBLIC_CAPTIONS.md``): its ``dev`` split
 was developed on, its ``eval`` split is held out. ``data/captions_senses.jsonl`` is the focused
 set for the decision the LLM makes in ``rag`` (which reading an ambiguous mention has; sources in
-``data/SENSES.md``): ``senses:dev`` developed on, ``senses:test`` held out. ``data/captions_wording.jsonl`` holds
-hand-written captions in the wordings that mislead rules (collective nouns, pronouns, crowd
-adjectives, riders, rare senses, negation; ``data/WORDING.md``): ``wording:dev`` developed on,
-``wording:heldout`` written afterwards, blind to the fixes. A caption is right
+``data/SENSES.md``): ``senses:dev`` developed on, ``senses:test`` held out.
+``data/captions_wording.jsonl`` holds hand-written captions in the wordings that mislead
+rules (collective nouns, pronouns, crowd adjectives, riders, rare senses, negation;
+``data/WORDING.md``): ``wording:dev`` developed on, ``wording:heldout`` written afterwards,
+blind to the first fixes, ``wording:test`` blind to all of them. A caption is right
 when ``is_dynamic`` matches and ``buffer_m`` falls in the expected buffer class.
 
 Latency: *cold* = first time a caption is seen (cache miss, models already loaded and the
@@ -121,7 +122,7 @@ def buffer_class(buffer_m: float) -> str:
 def load_cases(data: str = "eval") -> list[CaptionCase]:
     """``eval``, ``dev`` (the project's sets), ``public`` (captions real captioners and people
     wrote; ``public:dev`` / ``public:eval`` for its splits), ``senses``, ``wording`` (wordings
-    that misled the rules; ``wording:dev`` / ``wording:heldout``) or a path to a JSONL file."""
+    that misled the rules; ``wording:dev`` / ``:heldout`` / ``:test``) or a path to a JSONL file."""
     name, _, split = data.partition(":")
     if name in ("eval", "dev", "public", "senses", "wording"):
         text = (pkg_resources.files("llmland_reasoner") / "data" / f"captions_{name}.jsonl").read_text("utf-8")
@@ -286,8 +287,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mode", choices=[*MODES, "all"], default="all")
     parser.add_argument("--data", default="eval",
-                        help="eval | dev | public[:dev|:eval|:heldout] | senses[:dev|:test] | wording[:dev|:heldout]"
-                             " | a JSONL caption set")
+                        help="eval | dev | public[:dev|:eval|:heldout] | senses[:dev|:test]"
+                             " | wording[:dev|:heldout|:test] | a JSONL caption set")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--ablations", action="store_true",
                         help="with --mode all: also rag and retrieval without the every-mention layer")
