@@ -6,14 +6,18 @@ by WordNet's lemmatiser), else a WordNet noun (class from its hypernyms, ``lexic
 else an unknown word in a noun's position ("a quokka on a rock"), which is classed careful.
 
 A mention is ``present`` unless the caption says, unambiguously, that it is not there:
-- ``negated``: right after "no"/"without" ("no people or cars in the street"); "not" and
-  anything looser never lower a class;
+- ``negated``: right after "no"/"without" ("no people or cars in the street"), unless hedged
+  ("almost no people"), and "nobody" itself unless hedged or excepted ("nobody except near the
+  pier"); "not" and anything looser never lower a class;
 - ``depicted``: the complement of a depiction ("a statue *of a woman*", "a painting of a
   horse") or the modifier of one ("a dog statue"). "A photo/picture/image/view of ..." is the
   camera's own picture, so what follows it is present.
 Nouns that only qualify the next noun ("aerial view", "tennis court", "cricket player", "bus
 stop" as a WordNet compound) are not mentions, except KB names of people, animals and vehicles
-("dog park", "police horse"), which are kept (careful).
+("dog park", "police horse"), which are kept (careful). A collective noun is not a mention
+when what it counts follows its "of" and is a person or an animal ("a family of geese" is
+geese): the counted mention stands for it. People named without a noun are mentions: pronoun
+subjects ("he", "someone") and crowd adjectives ("a crowded beach").
 """
 
 from __future__ import annotations
@@ -35,6 +39,14 @@ MAX_NAME_WORDS = 4
 NEGATION_REACH = 3
 NEGATORS = frozenset({"no", "without"})
 COORDINATORS = frozenset({"or", "nor"})
+#: Words that make the negation after them partial ("almost no people", "hardly anybody"): it
+#: lowers nothing.
+HEDGES = frozenset("almost nearly hardly barely virtually practically scarcely".split())
+#: Pronouns that say no person is there, as "no one" does: negated unless hedged or excepted
+#: ("almost nobody", "nobody except near the pier": people are there).
+NOBODY = frozenset({"nobody", "noone"})
+#: Words after such a pronoun that say someone is there after all.
+EXCEPTIONS = frozenset("but except besides apart save".split())
 #: Words between a negator and a noun that end the negation ("no one but a man", "no, a dog").
 NEGATION_STOP = frozenset({"one", "body", "but", "except", "besides", "apart", "only", "just", "save", ",", ";"})
 DETERMINERS = frozenset(
@@ -51,7 +63,7 @@ FUNCTION_WORDS = frozenset(
     "outside toward towards against upon among amongst via per than then also very too no not without "
     "has have had do does did can could will would may might must shall should who whom whose which what "
     "where when why how all both each every any few many much more most other such only own same so just "
-    "away back together front top side middle left right far close nobody noone".split()
+    "away back together front top side middle left right far close".split()
 )
 #: Nouns that count what follows "of" ("a couple of playgrounds", "lots of cars"): not mentions.
 QUANTIFIERS = frozenset(
@@ -71,11 +83,19 @@ CROWD_ADJECTIVES = frozenset("crowded overcrowded bustling thronged populated".s
 CROWDED_BY = frozenset("with by together".split())
 #: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
 _PLACE_CLASSES = frozenset({"terrain", "unknown"})
-#: Words that may stand between a collective noun's "of" and what it counts ("a family of wild
-#: ducks", "a herd of black and white cows"), besides determiners and adjectives.
+#: How many words may stand between a collective noun's "of" and what it counts ("a family of
+#: wild ducks", "a herd of black and white cows"): determiners, numbers, "and", adjectives; not
+#: a singular determiner (:data:`SINGULAR_DETERMINERS`: "the crew of a boat" belongs to it).
 COLLECTIVE_GAP = 3
-#: The classes a two-letter word may name after a determiner ("an ox", "a parked RV").
-SHORT_NOUN_CLASSES = frozenset({"animal", "vehicle"})
+SINGULAR_DETERMINERS = frozenset("a an one this that each every".split())
+#: What a collective noun may count: people and animals ("a member of a motorcycle club", "the
+#: crew of the ambulance" are people, whatever vehicle follows).
+_COUNTED = frozenset({"person", "animal"})
+#: The classes a two-letter word may name after a determiner ("a parked RV"); not animals
+#: (WordNet's "ai" is a sloth: "an AI generated image").
+SHORT_NOUN_CLASSES = frozenset({"vehicle"})
+#: Care order of the classes a newly found compound may take over a span with (``_compound``).
+_CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
 PARKED = frozenset({"parked", "docked", "moored"})
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
@@ -169,7 +189,7 @@ class MentionFinder:
         word = words[i]
         if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha():
             return False
-        if len(word) < 3:  # "an ox", "an RV"; not "ai" or "pa" wherever they stand
+        if len(word) < 3:  # "an RV"; not "ai", "pa" or "ma"
             return (i > 0 and words[i - 1] in DETERMINERS
                     and self.wordnet.noun_class(self.wordnet.lemma(word)) in SHORT_NOUN_CLASSES)
         if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
@@ -225,20 +245,34 @@ class MentionFinder:
         return (1, entry.category, "kb", entry.id) if entry is not None else (1, "person", "wordnet", None)
 
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
-        """A WordNet noun of two or three words ("bus stop", "car park", "sport utility vehicle")
-        that names a physical thing, the longest first; captions often write without the hyphen
-        WordNet has ("hot air balloon": "hot-air balloon", "go kart": "go-kart")."""
+        """A WordNet noun of two words ("bus stop", "car park") that names a physical thing; or
+        one of three words, or one WordNet hyphenates and captions do not ("four wheel drive",
+        "hot air balloon": the hot-air balloon), only when it names a person, animal or
+        vehicle at least as careful as any of its words ("a two year old" stays a child, not
+        WordNet's racehorse; "a used car lot" keeps its car). Longest first."""
         for n in (3, 2):
             span = words[i : i + n]
             if len(span) < n or any(w in FUNCTION_WORDS for w in span):
                 continue
             *head, last = span
             last = self.wordnet.lemma(last)
-            names = [" ".join([*head, last]), "-".join(head) + " " + last if n == 3 else "-".join([*head, last])]
-            cls = next((c for c in map(self.wordnet.noun_class, names) if c is not None), None)
-            if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
+            spaced = " ".join([*head, last])
+            if n == 2:
+                cls = self.wordnet.noun_class(spaced)
+                if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
+                    return n, cls
+            hyphenated = ["-".join([*head, last])] + ([spaced] if n == 3 else []) \
+                + (["-".join(head) + " " + last] if n == 3 else [])
+            cls = next((c for c in map(self.wordnet.noun_class, hyphenated) if c is not None), None)
+            if cls in _CARE_ORDER and _CARE_ORDER[cls] >= max(self._care_of_word(w) for w in span):
                 return n, cls
         return None
+
+    def _care_of_word(self, word: str) -> int:
+        """:data:`_CARE_ORDER` of a word alone: its KB name's category, else its WordNet class."""
+        kb = self._kb_match([word], 0)
+        cls = kb[1].category if kb is not None else self.wordnet.noun_class(self.wordnet.lemma(word))
+        return _CARE_ORDER.get(cls or "", 0)
 
     def _is_unknown_head(self, words: Sequence[str], i: int) -> bool:
         word = words[i]
@@ -277,7 +311,8 @@ class MentionFinder:
         kept: list[Found] = []
         for k, unit in enumerate(units):
             nxt = units[k + 1] if k + 1 < len(units) else None
-            if nxt is not None and nxt.start == unit.end and nxt.word_class != "abstract":
+            if nxt is not None and nxt.start == unit.end and nxt.word_class != "abstract" \
+                    and nxt.text not in PERSON_PRONOUNS:  # "the mule he rides": the mule is there
                 if nxt.word_class == "lookalike" and unit.word_class in _LIVING_OR_VEHICLE \
                         and not self.wordnet.is_verb(nxt.text):
                     kept.append(_with(unit, "depicted"))  # "a dog statue"
@@ -298,16 +333,16 @@ class MentionFinder:
         """Drop a collective noun that counts what follows its "of" ("a family of geese", "a mob of
         kangaroos", "a crew of workers"): the counted mention says what is there, while the
         collective's own classes (a family, a mob: people) would misname it. Only a WordNet
-        noun with a group sense, only when a person, animal or vehicle follows within
-        :data:`COLLECTIVE_GAP` words of determiners or adjectives ("a family of four having a
-        picnic" keeps the family)."""
+        noun with a group sense, only when a person or an animal follows within
+        :data:`COLLECTIVE_GAP` words of plural determiners, numbers or adjectives ("a family of
+        four having a picnic", "the crew of a fishing boat" keep their people)."""
         out: list[Found] = []
         for k, m in enumerate(mentions):
             nxt = mentions[k + 1] if k + 1 < len(mentions) else None
-            if (m.source == "wordnet" and nxt is not None and nxt.word_class in _LIVING_OR_VEHICLE
+            if (m.source == "wordnet" and nxt is not None and nxt.word_class in _COUNTED
                     and m.end < len(words) and words[m.end] == "of"
                     and 0 <= nxt.start - m.end - 1 <= COLLECTIVE_GAP
-                    and all(self._modifier(w) for w in words[m.end + 1 : nxt.start])
+                    and all(self._modifier(w) and w not in SINGULAR_DETERMINERS for w in words[m.end + 1 : nxt.start])
                     and any(sense.group for sense in self.wordnet.senses(self.wordnet.lemma(m.text.split()[-1])))):
                 continue
             out.append(m)
@@ -321,7 +356,8 @@ class MentionFinder:
         at = {m.start: m for m in mentions}
         added: list[Found] = []
         for j, word in enumerate(words):
-            if word not in CROWD_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY):
+            if word not in CROWD_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY) \
+                    or any(m.start <= j < m.end for m in mentions):  # "a populated area": one unit
                 continue
             nxt = at.get(j + 1)
             if nxt is not None and nxt.word_class not in _PLACE_CLASSES and self._plural(nxt.text):
@@ -366,8 +402,12 @@ class MentionFinder:
 
     def _mark_negated(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         out = list(mentions)
+        for j, m in enumerate(out):  # "nobody on the pier"
+            if m.text in NOBODY and not (m.start > 0 and words[m.start - 1] in HEDGES) \
+                    and not EXCEPTIONS.intersection(words[m.end : m.end + NEGATION_REACH + 1]):
+                out[j] = _with(m, "negated")
         for p, word in enumerate(words):
-            if word not in NEGATORS:
+            if word not in NEGATORS or (p > 0 and words[p - 1] in HEDGES):
                 continue
             k = next((k for k, m in enumerate(out) if m.start > p), None)
             between = words[p + 1 : out[k].start] if k is not None else []

@@ -164,14 +164,16 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
     or the parked ones when its window says it is parked; for a place the KB does not name,
     plain ground (water and rocks only by name); for a person the riders (a person
     class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it, and
-    only the riders when the caption puts the person on it (``astride``: "a boy on a dirt bike")."""
+    only the riders when the caption puts the person on it (``astride``: "a boy on a dirt bike")
+    or names the person by a rider's KB name ("bikers on the trail")."""
     categories = CLASS_CATEGORIES.get(found.word_class, ())
     entries = [e for e in kb.entries if e.category in categories]
     if found.word_class == "terrain" and found.source == "wordnet":
         entries = [e for e in entries if e.buffer_m == 0.0] or entries  # a place the KB lacks is ground
     if found.word_class == "person":
         floor = MIN_BUFFER_M["person"]
-        if astride:
+        named_rider = any(e.id == found.kb_id and e.buffer_m > floor for e in entries)  # "bikers"
+        if astride or named_rider:
             entries = [e for e in entries if e.buffer_m > floor] or entries
         elif not ridden:
             entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
@@ -192,21 +194,23 @@ TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
 RIDING_CUES = frozenset("on riding rides ride rode astride atop aboard onboard mounted".split())
 
 
-def _rideable(m: Found) -> bool:
-    return m.status == "present" and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS)
+#: How many words may stand between a person and the two-wheeler the caption puts them on
+#: ("a police officer on a motorbike").
+RIDE_REACH = 3
 
 
 def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
     """Whether a vehicle or a bicycle is named within the person's window ("a boy riding his bicycle")."""
-    return any(person.end <= m.start < person.start + WINDOW_WORDS and _rideable(m) for m in mentions)
+    return any(person.end <= m.start < person.start + WINDOW_WORDS
+               and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS) for m in mentions)
 
 
 def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
     """Whether the caption puts the person on the next thing it names, a two-wheeler
-    (:data:`TWO_WHEELER_IDS`) within the person's window, with a :data:`RIDING_CUES` word
-    between them."""
+    (:data:`TWO_WHEELER_IDS`, not negated) at most :data:`RIDE_REACH` words after the person,
+    with a :data:`RIDING_CUES` word between them."""
     nxt = min((m for m in mentions if m.start >= person.end), key=lambda m: m.start, default=None)
-    return (nxt is not None and nxt.start < person.start + WINDOW_WORDS and nxt.status == "present"
+    return (nxt is not None and nxt.start - person.end <= RIDE_REACH and nxt.status != "negated"
             and nxt.kb_id in TWO_WHEELER_IDS and any(w in RIDING_CUES for w in words[person.end : nxt.start]))
 
 

@@ -110,8 +110,12 @@ def test_tokens_keep_hyphens_commas_and_fold_possessives() -> None:
     ("a pack of wild dogs", {"wild dogs": "animal"}),
     ("a herd of black and white cows", {"cows": "animal"}),
     ("a crew of workers", {"workers": "person"}),
-    # ... only then: "of four" counts nobody, so the family stays
+    # ... only then: "of four" counts nobody, so the family stays; a crew or a member of a
+    # vehicle or a club are people, whatever follows
     ("a family of four having a picnic", {"family": "person", "picnic": "terrain"}),
+    ("the crew of a fishing boat hauling nets", {"crew": "person", "fishing boat": "vehicle", "nets": "object"}),
+    ("the crew of the ambulance", {"crew": "person", "ambulance": "vehicle"}),
+    ("a gang of motorcyclists on the highway", {"gang": "person", "motorcyclists": "vehicle", "highway": "terrain"}),
 ])
 def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, caption: str,
                                                      expected: dict[str, str]) -> None:
@@ -129,8 +133,13 @@ def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, capt
     # not when the adjective says how dense things are, or names what crowds the place
     ("many houses and crowded buildings", {"houses": "structure", "buildings": "structure"}),
     ("a street crowded with cars", {"street": "terrain", "cars": "vehicle"}),
-    # "nobody" says no one is there, like "no one"
+    # a noun before a pronoun is not its qualifier
+    ("the mule he rides along the trail", {"mule": "animal", "he": "person", "trail": "terrain"}),
+    # "nobody" says no one is there, like "no one"; hedged or excepted, someone is
     ("nobody on the pier", {"pier": "object"}),
+    ("almost nobody on the beach at dawn", {"nobody": "person", "beach": "terrain"}),
+    ("nobody around except at the far end of the field", {"nobody": "person", "end": "terrain", "field": "terrain"}),
+    ("almost no people on the beach", {"people": "person", "beach": "terrain"}),
 ])
 def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
@@ -139,10 +148,13 @@ def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expect
 @pytest.mark.parametrize(("caption", "expected"), [
     # WordNet's three-word and hyphenated names, written as captions write them
     ("a hot air balloon drifting over vineyards", {"hot air balloon": "vehicle", "vineyards": "vegetation"}),
-    ("a sport utility vehicle on the road", {"sport utility vehicle": "vehicle", "road": "terrain"}),
-    # two-letter nouns after a determiner, only as animals or vehicles
+    ("a four wheel drive on a dirt road", {"four wheel drive": "vehicle", "dirt road": "terrain"}),
+    # ... never over a more careful word ("a two year old" is no racehorse, "a used car lot" has cars)
+    ("a two year old playing in the garden", {"year": "person", "garden": "vegetation"}),
+    ("an aerial view of a used car lot", {"used car": "vehicle", "lot": "terrain"}),
+    # two-letter nouns after a determiner, only as vehicles
     ("an RV parked at a campsite", {"rv": "vehicle", "campsite": "terrain"}),
-    ("AI generated image of a park", {"park": "terrain"}),
+    ("an AI generated image of a park", {"park": "terrain"}),
 ])
 def test_compound_and_short_names(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected

@@ -99,6 +99,9 @@ def test_the_single_answer_ablation(resources: Resources) -> None:
     ("a boy on a dirt bike jumping a mound", "cyclist"),
     ("a delivery rider on a moped weaving through traffic", "cyclist"),
     ("a girl riding her bicycle down the lane", "cyclist"),
+    ("a police officer on a motorbike", "cyclist"),  # a two-word person: reach from its end
+    ("a family of bikers on the trail", "cyclist"),  # named by a rider's name
+    ("a man on a motorbike in a sign shop", "cyclist"),  # the display rule's misfire raises no rider
 ])
 def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, caption: str, label: str) -> None:
     spec = extractor.extract(caption)
