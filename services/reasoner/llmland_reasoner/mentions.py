@@ -7,8 +7,8 @@ else an unknown word in a noun's position ("a quokka on a rock"), which is class
 
 A mention is ``present`` unless the caption says, unambiguously, that it is not there:
 - ``negated``: right after "no"/"without" ("no people or cars in the street"), unless hedged
-  ("almost no people"), and "nobody" itself unless hedged or excepted ("nobody except near the
-  pier"); "not" and anything looser never lower a class;
+  ("almost no people"); "not", "nobody" (people may be there: "nobody else", "nobody is
+  swimming") and anything looser never lower a class;
 - ``depicted``: the complement of a depiction ("a statue *of a woman*", "a painting of a
   horse") or the modifier of one ("a dog statue"). "A photo/picture/image/view of ..." is the
   camera's own picture, so what follows it is present.
@@ -42,11 +42,6 @@ COORDINATORS = frozenset({"or", "nor"})
 #: Words that make the negation after them partial ("almost no people", "hardly anybody"): it
 #: lowers nothing.
 HEDGES = frozenset("almost nearly hardly barely virtually practically scarcely".split())
-#: Pronouns that say no person is there, as "no one" does: negated unless hedged or excepted
-#: ("almost nobody", "nobody except near the pier": people are there).
-NOBODY = frozenset({"nobody", "noone"})
-#: Words after such a pronoun that say someone is there after all.
-EXCEPTIONS = frozenset("but except besides apart save".split())
 #: Words between a negator and a noun that end the negation ("no one but a man", "no, a dog").
 NEGATION_STOP = frozenset({"one", "body", "but", "except", "besides", "apart", "only", "just", "save", ",", ";"})
 DETERMINERS = frozenset(
@@ -84,8 +79,9 @@ CROWDED_BY = frozenset("with by together".split())
 #: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
 _PLACE_CLASSES = frozenset({"terrain", "unknown"})
 #: How many words may stand between a collective noun's "of" and what it counts ("a family of
-#: wild ducks", "a herd of black and white cows"): determiners, numbers, "and", adjectives; not
-#: a singular determiner (:data:`SINGULAR_DETERMINERS`: "the crew of a boat" belongs to it).
+#: wild ducks", "a herd of black and white cows"): plural determiners, numbers, adjectives and
+#: "and" between adjectives; not a singular determiner (:data:`SINGULAR_DETERMINERS`: "the crew
+#: of a boat" belongs to it), not "and" before a count ("a family of four and two dogs").
 COLLECTIVE_GAP = 3
 SINGULAR_DETERMINERS = frozenset("a an one this that each every".split())
 #: What a collective noun may count: people and animals ("a member of a motorcycle club", "the
@@ -269,8 +265,12 @@ class MentionFinder:
         return None
 
     def _care_of_word(self, word: str) -> int:
-        """:data:`_CARE_ORDER` of a word alone: its KB name's category, else its WordNet class."""
+        """:data:`_CARE_ORDER` of a word alone: its KB name's category, else its WordNet class; a
+        word neither knows ranks as an animal, as careful as the unknown spec it would get ("a
+        two seater" stays unknown, not WordNet's two-seater)."""
         kb = self._kb_match([word], 0)
+        if kb is None and word.isalpha() and word not in FUNCTION_WORDS and not self.wordnet.is_known(word):
+            return _CARE_ORDER["animal"]
         cls = kb[1].category if kb is not None else self.wordnet.noun_class(self.wordnet.lemma(word))
         return _CARE_ORDER.get(cls or "", 0)
 
@@ -333,20 +333,46 @@ class MentionFinder:
         """Drop a collective noun that counts what follows its "of" ("a family of geese", "a mob of
         kangaroos", "a crew of workers"): the counted mention says what is there, while the
         collective's own classes (a family, a mob: people) would misname it. Only a WordNet
-        noun with a group sense, only when a person or an animal follows within
-        :data:`COLLECTIVE_GAP` words of plural determiners, numbers or adjectives ("a family of
-        four having a picnic", "the crew of a fishing boat" keep their people)."""
+        noun whose most frequent sense is a group ("members of ..." are people), only when a
+        person or an animal follows within :data:`COLLECTIVE_GAP` words of plural determiners,
+        numbers or adjectives, and heads its noun phrase ("a family of four having a picnic",
+        "the crew of a fishing boat", "the crew of the cattle truck", "members of the pony club"
+        keep their people)."""
         out: list[Found] = []
         for k, m in enumerate(mentions):
             nxt = mentions[k + 1] if k + 1 < len(mentions) else None
             if (m.source == "wordnet" and nxt is not None and nxt.word_class in _COUNTED
                     and m.end < len(words) and words[m.end] == "of"
                     and 0 <= nxt.start - m.end - 1 <= COLLECTIVE_GAP
-                    and all(self._modifier(w) and w not in SINGULAR_DETERMINERS for w in words[m.end + 1 : nxt.start])
-                    and any(sense.group for sense in self.wordnet.senses(self.wordnet.lemma(m.text.split()[-1])))):
+                    and self._counting_gap(words[m.end + 1 : nxt.start])
+                    and self._heads_phrase(words, nxt, mentions)
+                    and self._mostly_group(m.text.split()[-1])):
                 continue
             out.append(m)
         return out
+
+    def _counting_gap(self, gap: Sequence[str]) -> bool:
+        """Words between "of" and the counted noun that only qualify it (:data:`COLLECTIVE_GAP`)."""
+        for j, w in enumerate(gap):
+            if w == "and":
+                after = gap[j + 1] if j + 1 < len(gap) else ""
+                if after in DETERMINERS or not after.isalpha() or not self.wordnet.is_adjective(after):
+                    return False  # "of four and two dogs": two things counted
+            elif w in SINGULAR_DETERMINERS or not self._modifier(w):
+                return False
+        return True
+
+    def _heads_phrase(self, words: Sequence[str], m: Found, mentions: Sequence[Found]) -> bool:
+        """Whether nothing names a thing right after ``m`` ("the pony club", "the duck hunting
+        club": the club is what is counted), across participles."""
+        j = m.end
+        while j < len(words) and words[j].endswith(("ing", "ed")) and words[j] not in FUNCTION_WORDS:
+            j += 1
+        return not any(x.start == j for x in mentions) and not (j < len(words) and self._is_unknown_head(words, j))
+
+    def _mostly_group(self, word: str) -> bool:
+        senses = self.wordnet.senses(self.wordnet.lemma(word))
+        return bool(senses) and senses[0].group
 
     def _with_crowds(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         """Add the crowd a :data:`CROWD_ADJECTIVES` word implies ("a crowded beach", "the square is
@@ -372,7 +398,7 @@ class MentionFinder:
         return self.wordnet.lemma(last) != last
 
     def _modifier(self, word: str) -> bool:
-        return word in DETERMINERS or word == "and" or word.isdigit() or self.wordnet.is_adjective(word)
+        return word in DETERMINERS or word.isdigit() or self.wordnet.is_adjective(word)
 
     def _mark_depiction_modifiers(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         """"a toy car", "an inflatable dinosaur"; "a dog on a poster", "a man in a painting"."""
@@ -402,10 +428,6 @@ class MentionFinder:
 
     def _mark_negated(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         out = list(mentions)
-        for j, m in enumerate(out):  # "nobody on the pier"
-            if m.text in NOBODY and not (m.start > 0 and words[m.start - 1] in HEDGES) \
-                    and not EXCEPTIONS.intersection(words[m.end : m.end + NEGATION_REACH + 1]):
-                out[j] = _with(m, "negated")
         for p, word in enumerate(words):
             if word not in NEGATORS or (p > 0 and words[p - 1] in HEDGES):
                 continue
