@@ -345,7 +345,7 @@ class MentionFinder:
                     and m.end < len(words) and words[m.end] == "of"
                     and 0 <= nxt.start - m.end - 1 <= COLLECTIVE_GAP
                     and self._counting_gap(words[m.end + 1 : nxt.start])
-                    and self._heads_phrase(words, nxt, mentions)
+                    and self._heads_phrase(words, nxt)
                     and self._mostly_group(m.text.split()[-1])):
                 continue
             out.append(m)
@@ -362,13 +362,15 @@ class MentionFinder:
                 return False
         return True
 
-    def _heads_phrase(self, words: Sequence[str], m: Found, mentions: Sequence[Found]) -> bool:
-        """Whether nothing names a thing right after ``m`` ("the pony club", "the duck hunting
-        club": the club is what is counted), across participles."""
+    def _heads_phrase(self, words: Sequence[str], m: Found) -> bool:
+        """Whether ``m`` ends its noun phrase: after any participles ("a family of ducks
+        swimming") the caption ends, or a function word or punctuation follows. Any other word
+        may be the head ``m`` only qualifies ("the pony club", "a crew of horse groomers": the
+        club, the groomers are what is counted), so the collective stays (careful)."""
         j = m.end
         while j < len(words) and words[j].endswith(("ing", "ed")) and words[j] not in FUNCTION_WORDS:
             j += 1
-        return not any(x.start == j for x in mentions) and not (j < len(words) and self._is_unknown_head(words, j))
+        return j == len(words) or words[j] in FUNCTION_WORDS or not words[j].isalpha()
 
     def _mostly_group(self, word: str) -> bool:
         senses = self.wordnet.senses(self.wordnet.lemma(word))

@@ -122,6 +122,7 @@ def test_tokens_keep_hyphens_commas_and_fold_possessives() -> None:
     ("members of the pony club riding along the beach",
      {"members": "person", "pony": "animal", "club": "object", "beach": "terrain"}),
     ("the crew of the cattle truck", {"crew": "person", "cattle": "animal", "truck": "vehicle"}),
+    ("a crew of horse groomers at a stable", {"crew": "person", "horse": "animal"}),  # "groomers": no mention
 ])
 def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, caption: str,
                                                      expected: dict[str, str]) -> None:
