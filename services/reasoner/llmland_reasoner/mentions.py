@@ -232,11 +232,9 @@ class MentionFinder:
             return 1, cls, "wordnet", None
         return None
 
-    def _implied_person(self, word: str) -> tuple[int, str, Source, str | None] | None:
-        """A person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective
+    def _implied_person(self, word: str) -> tuple[int, str, Source, str | None]:
+        """The unit of a person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective
         (:data:`CROWD_ADJECTIVES`): the KB's person or crowd entry, else WordNet's person class."""
-        if word not in PERSON_PRONOUNS and word not in CROWD_ADJECTIVES:
-            return None
         entry = self._person if word in PERSON_PRONOUNS else self._crowd
         return (1, entry.category, "kb", entry.id) if entry is not None else (1, "person", "wordnet", None)
 
@@ -257,9 +255,10 @@ class MentionFinder:
                 cls = self.wordnet.noun_class(spaced)
                 if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
                     return n, cls
-            hyphenated = ["-".join([*head, last])] + ([spaced] if n == 3 else []) \
-                + (["-".join(head) + " " + last] if n == 3 else [])
-            cls = next((c for c in map(self.wordnet.noun_class, hyphenated) if c is not None), None)
+            names = ["-".join([*head, last])]  # "go-kart"; three words: also "hot-air balloon"
+            if n == 3:
+                names += [spaced, "-".join(head) + " " + last]
+            cls = next((c for c in map(self.wordnet.noun_class, names) if c is not None), None)
             if cls in _CARE_ORDER and _CARE_ORDER[cls] >= max(self._care_of_word(w) for w in span):
                 return n, cls
         return None
@@ -390,9 +389,8 @@ class MentionFinder:
             nxt = at.get(j + 1)
             if nxt is not None and nxt.word_class not in _PLACE_CLASSES and self._plural(nxt.text):
                 continue
-            unit = self._implied_person(word)
-            assert unit is not None
-            added.append(Found(j, j + 1, word, unit[1], unit[2], unit[3]))
+            _, cls, source, kb_id = self._implied_person(word)
+            added.append(Found(j, j + 1, word, cls, source, kb_id))
         return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
 
     def _plural(self, text: str) -> bool:

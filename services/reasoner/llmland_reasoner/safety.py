@@ -187,13 +187,9 @@ RIDDEN_IDS = frozenset({"bicycle"})
 #: The KB's two-wheelers, whose rider is the KB's cyclist (5 m: "a person riding a bicycle or
 #: motorbike"); a person on a skateboard, a boat or a bus is not put among the riders by rule.
 TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
-
-
 #: Words that put a person on the vehicle or bicycle named after them ("a boy on a dirt bike",
 #: "a man riding a moped"): then the person is its rider, whatever the window resembles most.
 RIDING_CUES = frozenset("on riding rides ride rode astride atop aboard onboard mounted".split())
-
-
 #: How many words may stand between a person and the two-wheeler the caption puts them on
 #: ("a police officer on a motorbike").
 RIDE_REACH = 3
