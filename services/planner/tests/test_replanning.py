@@ -1,10 +1,13 @@
-"""``Replanner.path_blocked``: what of the path ahead is checked, and against which boxes."""
+"""``Replanner``: what of the path ahead is checked and against which boxes, the start's clearance
+ball, and how often failed searches are retried."""
 
 import numpy as np
 import pytest
+from llmland_planner import replanning
 from llmland_planner.path import Path
 from llmland_planner.regions import UnsafeRegion
 from llmland_planner.replanning import PATH_GRAZE_M, ActivePlan, Replanner, start_clearance_m
+from llmland_planner.settings import PlannerSettings
 
 STEP_M = 0.1
 
@@ -110,3 +113,32 @@ def test_a_start_beside_a_slit_gets_a_ball_that_leaves_yet_reaches_no_thing() ->
     far = np.linalg.norm(path.p - start, axis=1) > radius
     assert not any(r.contains(p) for r in regions for p in path.p[far][:-1])
     assert plan(start, np.zeros(3), goal, regions, replace(cfg, clearance_radius_m=0.672 + 0.3)) is None  # before
+
+
+
+def test_failures_at_the_full_budget_are_retried_once_per_replan_period_even_off_the_corridor(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Regression (Exp 1 conservative, open_field seed 34): off its corridor the vehicle asks
+    for a replan on every tick, and that request skipped the back-off, so searches at ×16 the
+    budget that kept failing ran back to back (twelve in 0.9 s of sim time, ~5 s of wall each
+    while the lockstep sim waited). The search is faked: each one fails at once."""
+    monkeypatch.setattr(replanning, "plan", lambda *_, **__: None)
+    settings = PlannerSettings()
+    rp = Replanner(settings)
+    rp.start(lockstep=True)
+    pos, vel, goal = np.array([0.0, 0.0, 3.0]), np.zeros(3), np.array([10.0, 0.0, 3.0])
+    starts: list[float] = []
+    for k in range(int(HORIZON_S / TICK_S)):
+        t = k * TICK_S
+        rp.force_replan = True  # off the corridor on every tick
+        rp.maybe_replan(t, pos, vel, goal, [], z_floor_m=3.0)
+        job = rp._job
+        if job is not None and job.t0_s == t:
+            starts.append(t)
+            job.done.wait(5.0)
+    spent = starts[replanning.SEARCH_BUDGET_DOUBLINGS:]  # from the first search at the full budget on
+    assert rp.failed_searches > replanning.SEARCH_BUDGET_DOUBLINGS and len(spent) >= 2, starts
+    assert np.all(np.diff(spent) >= settings.replan_period_s - 1e-9), starts
+
+
+TICK_S, HORIZON_S = 0.02, 4.0
