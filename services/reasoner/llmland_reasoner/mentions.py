@@ -17,7 +17,8 @@ stop" as a WordNet compound) are not mentions, except KB names of people, animal
 ("dog park", "police horse"), which are kept (careful). A collective noun is not a mention
 when what it counts follows its "of" and is a person or an animal ("a family of geese" is
 geese): the counted mention stands for it. People named without a noun are mentions: pronoun
-subjects ("he", "someone") and crowd adjectives ("a crowded beach").
+subjects ("he", "someone") and crowd adjectives ("a crowded beach"); so is the traffic a road's
+adjective implies ("a busy highway", "the road is congested").
 """
 
 from __future__ import annotations
@@ -71,11 +72,21 @@ QUANTIFIERS = frozenset(
 #: no one is ("there isn't anyone on the field"): the rest of the caption decides there.
 PERSON_PRONOUNS = frozenset("he she him someone somebody everyone everybody".split())
 #: Adjectives that say a place is full of people ("a crowded beach", "a bustling market"): the
-#: crowd is there though no noun names it. Not "busy" (a busy road is traffic: vehicles or people).
+#: crowd is there though no noun names it. Not "busy" (a busy road is traffic: :data:`TRAFFIC_ADJECTIVES`).
 #: Not when they qualify things ("crowded buildings": dense) or say what crowds the place
 #: ("crowded with cars": the cars are the mention), :data:`CROWDED_BY`.
 CROWD_ADJECTIVES = frozenset("crowded overcrowded bustling thronged populated".split())
 CROWDED_BY = frozenset("with by together".split())
+#: Adjectives that say a road is full of vehicles ("a busy highway", "the road is congested"):
+#: the traffic is there though no noun names it; only of a :data:`TRAFFIC_ROADS` noun right after
+#: them or before a copula before them, and not when what fills the road follows ("busy with
+#: shoppers": that mention says it).
+TRAFFIC_ADJECTIVES = frozenset("busy congested jammed gridlocked".split())
+TRAFFIC_ROADS = frozenset(
+    "road roads street streets highway highways freeway freeways motorway motorways expressway expressways "
+    "interstate avenue avenues boulevard intersection intersections junction roundabout".split()
+)
+COPULAS = frozenset("is are was were looks seems".split())
 #: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
 _PLACE_CLASSES = frozenset({"terrain", "unknown"})
 #: How many words may stand between a collective noun's "of" and what it counts ("a family of
@@ -87,9 +98,9 @@ SINGULAR_DETERMINERS = frozenset("a an one this that each every".split())
 #: What a collective noun may count: people and animals ("a member of a motorcycle club", "the
 #: crew of the ambulance" are people, whatever vehicle follows).
 _COUNTED = frozenset({"person", "animal"})
-#: The classes a two-letter word may name after a determiner ("a parked RV"); not animals
-#: (WordNet's "ai" is a sloth: "an AI generated image").
-SHORT_NOUN_CLASSES = frozenset({"vehicle"})
+#: The classes a two-letter word may name after a determiner ("a parked RV", "a DJ playing
+#: music"); not animals (WordNet's "ai" is a sloth: "an AI generated image") nor places.
+SHORT_NOUN_CLASSES = frozenset({"vehicle", "person"})
 #: Care order of the classes a newly found compound may take over a span with (``_compound``).
 _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
@@ -156,6 +167,7 @@ class MentionFinder:
         # the KB entries a pronoun and a crowd adjective stand for (None: a KB without them)
         self._person = self._surface.get(("person",))
         self._crowd = self._surface.get(("crowd",)) or self._person
+        self._traffic = self._surface.get(("traffic",))  # the KB entry implied traffic stands for
 
     def _lemma_key(self, words: Sequence[str]) -> tuple[str, ...]:
         return (*words[:-1], self.wordnet.lemma(words[-1]))
@@ -300,7 +312,8 @@ class MentionFinder:
                 i += 1
             else:
                 i += 1
-        mentions = self._with_crowds(words, self._without_collectives(words, self._heads(units)))
+        mentions = self._without_collectives(words, self._heads(units))
+        mentions = self._with_traffic(words, self._with_crowds(words, mentions))
         mentions = self._mark_depicted(words, mentions)
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
@@ -391,6 +404,26 @@ class MentionFinder:
                 continue
             _, cls, source, kb_id = self._implied_person(word)
             added.append(Found(j, j + 1, word, cls, source, kb_id))
+        return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
+
+    def _with_traffic(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Add the traffic a :data:`TRAFFIC_ADJECTIVES` word implies of a :data:`TRAFFIC_ROADS`
+        noun ("a busy highway", "a congested road", "the street is jammed"): the KB's entry named
+        "traffic", else WordNet's vehicle class. Not when what fills the road follows ("busy with
+        shoppers") or when a mention holds the adjective."""
+        at = {m.start: m for m in mentions}
+        added: list[Found] = []
+        for j, word in enumerate(words):
+            if word not in TRAFFIC_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY) \
+                    or any(m.start <= j < m.end for m in mentions):
+                continue
+            road_after = j + 1 < len(words) and words[j + 1] in TRAFFIC_ROADS
+            road_before = j >= 2 and words[j - 1] in COPULAS and words[j - 2] in TRAFFIC_ROADS
+            if not (road_after or road_before) or (road_after and j + 1 in at and at[j + 1].word_class != "terrain"):
+                continue
+            entry = self._traffic
+            added.append(Found(j, j + 1, word, *((entry.category, "kb", entry.id) if entry is not None
+                                                 else ("vehicle", "wordnet", None))))
         return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
 
     def _plural(self, text: str) -> bool:

@@ -190,9 +190,12 @@ TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
 #: Words that put a person on the vehicle or bicycle named after them ("a boy on a dirt bike",
 #: "a man riding a moped"): then the person is its rider, whatever the window resembles most.
 RIDING_CUES = frozenset("on riding rides ride rode astride atop aboard onboard mounted".split())
-#: How many words may stand between a person and the two-wheeler the caption puts them on
-#: ("a police officer on a motorbike").
+#: How many words may stand between a riding cue and the two-wheeler it puts the person on
+#: ("on a motorbike", "riding his old dirt bike").
 RIDE_REACH = 3
+#: How many words may stand between a person and the riding cue after them: what they wear or
+#: carry ("a man in a red helmet riding a motorcycle"), with no other person named in between.
+RIDER_TO_CUE_REACH = 5
 
 
 def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
@@ -202,12 +205,23 @@ def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
 
 
 def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
-    """Whether the caption puts the person on the next thing it names, a two-wheeler
-    (:data:`TWO_WHEELER_IDS`, not negated) at most :data:`RIDE_REACH` words after the person,
-    with a :data:`RIDING_CUES` word between them."""
-    nxt = min((m for m in mentions if m.start >= person.end), key=lambda m: m.start, default=None)
-    return (nxt is not None and nxt.start - person.end <= RIDE_REACH and nxt.status != "negated"
-            and nxt.kb_id in TWO_WHEELER_IDS and any(w in RIDING_CUES for w in words[person.end : nxt.start]))
+    """Whether the caption puts the person on a two-wheeler: a :data:`RIDING_CUES` word at most
+    :data:`RIDER_TO_CUE_REACH` words after the person whose next thing named, at most
+    :data:`RIDE_REACH` words after it, is a two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated
+    nor parked ("a man on the sidewalk riding a bicycle"; "a child sitting on a parked motorcycle"
+    rides nothing), with no other person named from the person to it ("a man next to a boy on a
+    bike": the boy rides it)."""
+    for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):
+        if words[j] not in RIDING_CUES:
+            continue
+        nxt = min((m for m in mentions if m.start > j), key=lambda m: m.start, default=None)
+        if nxt is None or nxt.start - j > RIDE_REACH:
+            continue
+        if any(m.word_class == "person" for m in mentions if person.end <= m.start <= nxt.start):
+            return False  # another person comes first: what follows is theirs
+        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not _parked(words, nxt, mentions):
+            return True
+    return False
 
 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:

@@ -140,6 +140,11 @@ def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, capt
     # not when the adjective says how dense things are, or names what crowds the place
     ("many houses and crowded buildings", {"houses": "structure", "buildings": "structure"}),
     ("a street crowded with cars", {"street": "terrain", "cars": "vehicle"}),
+    # traffic implied by a road's adjective; not where what fills the road follows it
+    ("a busy highway at dusk", {"busy": "vehicle", "highway": "terrain"}),
+    ("the road is congested near the exit", {"road": "terrain", "congested": "vehicle", "exit": "object"}),
+    ("a street busy with shoppers", {"street": "terrain", "shoppers": "person"}),
+    ("a busy harbour with fishing boats", {"harbour": "terrain", "fishing boats": "vehicle"}),  # no road
     # a noun before a pronoun is not its qualifier
     ("the mule he rides along the trail", {"mule": "animal", "he": "person", "trail": "terrain"}),
     # "nobody" never lowers a class ("nobody else around", "nobody is swimming": people may be
@@ -148,7 +153,7 @@ def test_a_collective_noun_is_read_as_what_it_counts(finder: MentionFinder, capt
     ("a lone figure on the beach, nobody else around", {"figure": "terrain", "beach": "terrain", "nobody": "person"}),
     ("almost no people on the beach", {"people": "person", "beach": "terrain"}),
 ])
-def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
+def test_people_and_traffic_named_without_a_noun(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
 
 
@@ -160,8 +165,9 @@ def test_people_named_without_a_noun(finder: MentionFinder, caption: str, expect
     ("a two year old playing in the garden", {"year": "person", "garden": "vegetation"}),
     ("an aerial view of a used car lot", {"used car": "vehicle", "lot": "terrain"}),
     ("a two seater near the road", {"seater": "unknown", "road": "terrain"}),  # unknown stays careful
-    # two-letter nouns after a determiner, only as vehicles
+    # two-letter nouns after a determiner, only as vehicles and people
     ("an RV parked at a campsite", {"rv": "vehicle", "campsite": "terrain"}),
+    ("a DJ playing music at a festival", {"dj": "person"}),
     ("an AI generated image of a park", {"park": "terrain"}),
 ])
 def test_compound_and_short_names(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:

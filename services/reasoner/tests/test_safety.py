@@ -102,6 +102,9 @@ def test_the_single_answer_ablation(resources: Resources) -> None:
     ("a police officer on a motorbike", "cyclist"),  # a two-word person: reach from its end
     ("a family of bikers on the trail", "cyclist"),  # named by a rider's name
     ("a man on a motorbike in a sign shop", "cyclist"),  # the display rule's misfire raises no rider
+    ("a man in a helmet riding a motorcycle along the coast", "cyclist"),  # attire before the cue
+    ("a woman wearing a red jacket rides a bicycle", "cyclist"),
+    ("a man on the sidewalk riding a bicycle", "cyclist"),  # a place before the cue
 ])
 def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, caption: str, label: str) -> None:
     spec = extractor.extract(caption)
@@ -111,6 +114,7 @@ def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, captio
 @pytest.mark.parametrize("caption", [
     "a man riding a skateboard down a ramp",  # not a two-wheeler: the KB's skateboarder
     "a young adult riding a boat on a lake",  # a boat's passenger is no cyclist
+    "a child sitting on a parked motorcycle",  # a parked two-wheeler is ridden by nobody
 ])
 def test_riding_something_else_is_not_cycling(extractor: SpecExtractor, caption: str) -> None:
     assert extractor.extract(caption).label != "cyclist"
