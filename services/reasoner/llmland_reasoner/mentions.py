@@ -98,9 +98,12 @@ SINGULAR_DETERMINERS = frozenset("a an one this that each every".split())
 #: What a collective noun may count: people and animals ("a member of a motorcycle club", "the
 #: crew of the ambulance" are people, whatever vehicle follows).
 _COUNTED = frozenset({"person", "animal"})
-#: The classes a two-letter word may name after a determiner ("a parked RV", "a DJ playing
-#: music"); not animals (WordNet's "ai" is a sloth: "an AI generated image") nor places.
-SHORT_NOUN_CLASSES = frozenset({"vehicle", "person"})
+#: The classes a two-letter word may name after a determiner ("a parked RV"); not animals
+#: (WordNet's "ai" is a sloth: "an AI generated image") nor places. A person only after an
+#: article and as the head of its phrase ("a DJ playing music"; not "a DJ booth", "an MD 80
+#: airplane", "five PM": abbreviations that qualify a thing), :meth:`MentionFinder._short_noun`.
+SHORT_NOUN_CLASSES = frozenset({"vehicle"})
+ARTICLES = frozenset({"a", "an", "the"})
 #: Care order of the classes a newly found compound may take over a span with (``_compound``).
 _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
@@ -197,9 +200,8 @@ class MentionFinder:
         word = words[i]
         if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha():
             return False
-        if len(word) < 3:  # "an RV"; not "ai", "pa" or "ma"
-            return (i > 0 and words[i - 1] in DETERMINERS
-                    and self.wordnet.noun_class(self.wordnet.lemma(word)) in SHORT_NOUN_CLASSES)
+        if len(word) < 3:  # "an RV", "a DJ playing"; not "ai", "pa" or "ma"
+            return self._short_noun(words, i)
         if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
             return False  # "walking", "parked": verbs and participles, unless "a crossing"
         if self._verb_here(words, i):
@@ -207,6 +209,20 @@ class MentionFinder:
         if self.wordnet.is_adjective(word):
             return False  # "lush plants", "a black and white dog", "a young man": adjectives, not nouns
         return self.wordnet.noun_class(self.wordnet.lemma(word)) is not None
+
+    def _short_noun(self, words: Sequence[str], i: int) -> bool:
+        """A two-letter word after a determiner that names a vehicle (:data:`SHORT_NOUN_CLASSES`),
+        or a person when an article precedes it and nothing follows that it could qualify: the
+        caption ends, or a function word, punctuation or a participle comes next."""
+        if i == 0 or words[i - 1] not in DETERMINERS:
+            return False
+        cls = self.wordnet.noun_class(self.wordnet.lemma(words[i]))
+        if cls in SHORT_NOUN_CLASSES:
+            return True
+        if cls != "person" or words[i - 1] not in ARTICLES:
+            return False
+        nxt = words[i + 1] if i + 1 < len(words) else ""
+        return nxt == "" or nxt in FUNCTION_WORDS or nxt in (",", ";") or nxt.endswith(("ing", "ed"))
 
     def _verb_here(self, words: Sequence[str], i: int) -> bool:
         """A word used mostly as a verb, right after a noun: "a player swings", "a man surfs"."""

@@ -208,9 +208,9 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
     """Whether the caption puts the person on a two-wheeler: a :data:`RIDING_CUES` word at most
     :data:`RIDER_TO_CUE_REACH` words after the person whose next thing named, at most
     :data:`RIDE_REACH` words after it, is a two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated
-    nor parked ("a man on the sidewalk riding a bicycle"; "a child sitting on a parked motorcycle"
-    rides nothing), with no other person named from the person to it ("a man next to a boy on a
-    bike": the boy rides it)."""
+    nor parked right there ("a man on the sidewalk riding a bicycle"; "a child sitting on a parked
+    motorcycle" rides nothing, :data:`PARKED_TWO_WHEELER`), with no other person named from the
+    person to it ("a man next to a boy on a bike": the boy rides it)."""
     for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):
         if words[j] not in RIDING_CUES:
             continue
@@ -219,9 +219,20 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
             continue
         if any(m.word_class == "person" for m in mentions if person.end <= m.start <= nxt.start):
             return False  # another person comes first: what follows is theirs
-        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not _parked(words, nxt, mentions):
+        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not _parked_right_there(words, nxt):
             return True
     return False
+
+
+#: Words that say a two-wheeler is parked when they stand right next to it ("a parked
+#: motorcycle", "a moped parked by the road"): nobody rides it. Not "stationary" (stopped at a
+#: light with its rider on), nor a cue of a thing named after it ("near a parked van").
+PARKED_TWO_WHEELER = frozenset("parked docked abandoned".split())
+
+
+def _parked_right_there(words: Sequence[str], vehicle: Found) -> bool:
+    near = {words[j] for j in (vehicle.start - 1, vehicle.end) if 0 <= j < len(words)}
+    return bool(near & PARKED_TWO_WHEELER) or any(w in PARKED_TWO_WHEELER for w in words[vehicle.start : vehicle.end])
 
 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:

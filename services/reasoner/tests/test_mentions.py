@@ -168,6 +168,10 @@ def test_people_and_traffic_named_without_a_noun(finder: MentionFinder, caption:
     # two-letter nouns after a determiner, only as vehicles and people
     ("an RV parked at a campsite", {"rv": "vehicle", "campsite": "terrain"}),
     ("a DJ playing music at a festival", {"dj": "person"}),
+    # ... not abbreviations that qualify a thing (review: a 3 m person then replaced the bus, the dog)
+    ("a bus parked next to a DJ booth", {"bus": "vehicle", "booth": "object"}),
+    ("an MD 80 airplane parked at the gate", {"airplane": "vehicle", "gate": "structure"}),
+    ("a clock reading five PM above a bus", {"clock": "object", "bus": "vehicle"}),
     ("an AI generated image of a park", {"park": "terrain"}),
 ])
 def test_compound_and_short_names(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:

@@ -105,6 +105,10 @@ def test_the_single_answer_ablation(resources: Resources) -> None:
     ("a man in a helmet riding a motorcycle along the coast", "cyclist"),  # attire before the cue
     ("a woman wearing a red jacket rides a bicycle", "cyclist"),
     ("a man on the sidewalk riding a bicycle", "cyclist"),  # a place before the cue
+    # a stationary cue of something else, or a stop at a light, leaves the rider on it (review)
+    ("a police officer on a motorcycle stationary at a red light", "cyclist"),
+    ("a toddler on a bicycle near a parked van", "cyclist"),
+    ("a farmer on a motorbike near an abandoned tractor", "cyclist"),
 ])
 def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, caption: str, label: str) -> None:
     spec = extractor.extract(caption)
@@ -115,6 +119,7 @@ def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, captio
     "a man riding a skateboard down a ramp",  # not a two-wheeler: the KB's skateboarder
     "a young adult riding a boat on a lake",  # a boat's passenger is no cyclist
     "a child sitting on a parked motorcycle",  # a parked two-wheeler is ridden by nobody
+    "a woman sitting on a moped parked by the road",
 ])
 def test_riding_something_else_is_not_cycling(extractor: SpecExtractor, caption: str) -> None:
     assert extractor.extract(caption).label != "cyclist"
