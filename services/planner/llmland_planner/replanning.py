@@ -195,12 +195,9 @@ class Replanner:
             or self.path_blocked(self.active, regions)
         )
         # at the full budget, failures are retried once per replan period, not back to back
-        # (each costs ~16× a search: in lockstep the sim waits for it), even when the vehicle
-        # left its corridor (``force_replan`` stays set and starts the search once the period is
-        # over; meanwhile the old path is tracked without corridors and dropped if blocked, as
-        # while any search runs). Up to 2026-12-06 a forced replan skipped the back-off: a
-        # vehicle off its corridor searched at ×16 back to back (Exp 1 conservative open_field
-        # 34: twelve 5 s searches in 0.9 s of sim time; seed 22: 1314 s of wall for 90 s flown).
+        # (each costs ~16× a search: in lockstep the sim waits for it), also off the corridor:
+        # ``force_replan`` stays set and starts the search when the period ends, the old path
+        # tracked meanwhile without corridors and dropped if blocked (as while any search runs)
         backing_off = (self._failed_in_row > SEARCH_BUDGET_DOUBLINGS
                        and t - self._last_replan_s < self.settings.replan_period_s)
         if need and self._job is None and not backing_off:

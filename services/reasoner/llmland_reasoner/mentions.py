@@ -135,6 +135,11 @@ _TOKEN = re.compile(r"[a-z0-9]+(?:[-'][a-z0-9]+)*|[,;]")
 _LIVING_OR_VEHICLE = frozenset({"person", "animal", "vehicle"})
 
 
+def _implied_unit(entry: KbEntry | None, wordnet_class: str) -> tuple[int, str, Source, str | None]:
+    """The one-word unit of a thing implied without a noun: its KB entry, else a WordNet class."""
+    return (1, entry.category, "kb", entry.id) if entry is not None else (1, wordnet_class, "wordnet", None)
+
+
 def tokenize(caption: str) -> list[str]:
     """Lower-case words; possessives folded ("people's" → "people")."""
     return [t.removesuffix("'s") for t in _TOKEN.findall(caption.lower())]
@@ -263,8 +268,7 @@ class MentionFinder:
     def _implied_person(self, word: str) -> tuple[int, str, Source, str | None]:
         """The unit of a person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective
         (:data:`CROWD_ADJECTIVES`): the KB's person or crowd entry, else WordNet's person class."""
-        entry = self._person if word in PERSON_PRONOUNS else self._crowd
-        return (1, entry.category, "kb", entry.id) if entry is not None else (1, "person", "wordnet", None)
+        return _implied_unit(self._person if word in PERSON_PRONOUNS else self._crowd, "person")
 
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
         """A WordNet noun of two words ("bus stop", "car park") that names a physical thing; or
@@ -328,8 +332,7 @@ class MentionFinder:
                 i += 1
             else:
                 i += 1
-        mentions = self._without_collectives(words, self._heads(units))
-        mentions = self._with_traffic(words, self._with_crowds(words, mentions))
+        mentions = self._with_implied(words, self._without_collectives(words, self._heads(units)))
         mentions = self._mark_depicted(words, mentions)
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
@@ -404,43 +407,40 @@ class MentionFinder:
         senses = self.wordnet.senses(self.wordnet.lemma(word))
         return bool(senses) and senses[0].group
 
-    def _with_crowds(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
-        """Add the crowd a :data:`CROWD_ADJECTIVES` word implies ("a crowded beach", "the square is
-        bustling"), unless what crowds the place follows it ("crowded with cars": that mention
-        says it) or it qualifies things, not a place: a plural noun other than a place
-        ("crowded buildings", "crowded houses": dense)."""
+    def _with_implied(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Add what an adjective implies though no noun names it: the crowd of a
+        :data:`CROWD_ADJECTIVES` word ("a crowded beach", "the square is bustling";
+        :meth:`_crowds_a_place`) and the traffic of a :data:`TRAFFIC_ADJECTIVES` word ("a busy
+        highway", "the road is congested"; :meth:`_fills_a_road`). Neither when what fills the
+        place follows it ("crowded with cars", "busy with shoppers": that mention says it) nor
+        when a mention holds the adjective ("a populated area": one unit)."""
         at = {m.start: m for m in mentions}
         added: list[Found] = []
         for j, word in enumerate(words):
-            if word not in CROWD_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY) \
-                    or any(m.start <= j < m.end for m in mentions):  # "a populated area": one unit
+            if (j + 1 < len(words) and words[j + 1] in CROWDED_BY) or any(m.start <= j < m.end for m in mentions):
                 continue
-            nxt = at.get(j + 1)
-            if nxt is not None and nxt.word_class not in _PLACE_CLASSES and self._plural(nxt.text):
+            if word in CROWD_ADJECTIVES and self._crowds_a_place(words, j, at):
+                _, cls, source, kb_id = self._implied_person(word)
+            elif word in TRAFFIC_ADJECTIVES and self._fills_a_road(words, j, at):
+                _, cls, source, kb_id = _implied_unit(self._traffic, "vehicle")
+            else:
                 continue
-            _, cls, source, kb_id = self._implied_person(word)
             added.append(Found(j, j + 1, word, cls, source, kb_id))
         return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
 
-    def _with_traffic(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
-        """Add the traffic a :data:`TRAFFIC_ADJECTIVES` word implies of a :data:`TRAFFIC_ROADS`
-        noun ("a busy highway", "a congested road", "the street is jammed"): the KB's entry named
-        "traffic", else WordNet's vehicle class. Not when what fills the road follows ("busy with
-        shoppers") or when a mention holds the adjective."""
-        at = {m.start: m for m in mentions}
-        added: list[Found] = []
-        for j, word in enumerate(words):
-            if word not in TRAFFIC_ADJECTIVES or (j + 1 < len(words) and words[j + 1] in CROWDED_BY) \
-                    or any(m.start <= j < m.end for m in mentions):
-                continue
-            road_after = j + 1 < len(words) and words[j + 1] in TRAFFIC_ROADS
-            road_before = j >= 2 and words[j - 1] in COPULAS and words[j - 2] in TRAFFIC_ROADS
-            if not (road_after or road_before) or (road_after and j + 1 in at and at[j + 1].word_class != "terrain"):
-                continue
-            entry = self._traffic
-            added.append(Found(j, j + 1, word, *((entry.category, "kb", entry.id) if entry is not None
-                                                 else ("vehicle", "wordnet", None))))
-        return sorted([*mentions, *added], key=lambda m: (m.start, m.end)) if added else mentions
+    def _crowds_a_place(self, words: Sequence[str], j: int, at: dict[int, Found]) -> bool:
+        """Not when the adjective qualifies things, not a place: a plural noun other than a place
+        ("crowded buildings", "crowded houses": dense)."""
+        nxt = at.get(j + 1)
+        return nxt is None or nxt.word_class in _PLACE_CLASSES or not self._plural(nxt.text)
+
+    @staticmethod
+    def _fills_a_road(words: Sequence[str], j: int, at: dict[int, Found]) -> bool:
+        """A :data:`TRAFFIC_ROADS` noun right after the adjective (read as a place), or before a
+        copula before it."""
+        if j + 1 < len(words) and words[j + 1] in TRAFFIC_ROADS:
+            return j + 1 not in at or at[j + 1].word_class == "terrain"
+        return j >= 2 and words[j - 1] in COPULAS and words[j - 2] in TRAFFIC_ROADS
 
     def _plural(self, text: str) -> bool:
         last = text.split()[-1]

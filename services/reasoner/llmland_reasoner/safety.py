@@ -196,6 +196,10 @@ RIDE_REACH = 3
 #: How many words may stand between a person and the riding cue after them: what they wear or
 #: carry ("a man in a red helmet riding a motorcycle"), with no other person named in between.
 RIDER_TO_CUE_REACH = 5
+#: Words that say a two-wheeler is parked when they stand right next to it ("a parked
+#: motorcycle", "a moped parked by the road"): nobody rides it. Not "stationary" (stopped at a
+#: light with its rider on), nor a cue of a thing named after it ("near a parked van").
+PARKED_TWO_WHEELER = frozenset("parked docked abandoned".split())
 
 
 def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
@@ -219,20 +223,10 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
             continue
         if any(m.word_class == "person" for m in mentions if person.end <= m.start <= nxt.start):
             return False  # another person comes first: what follows is theirs
-        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not _parked_right_there(words, nxt):
+        beside = words[max(0, nxt.start - 1) : nxt.end + 1]  # the two-wheeler's words and one each side
+        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not PARKED_TWO_WHEELER & set(beside):
             return True
     return False
-
-
-#: Words that say a two-wheeler is parked when they stand right next to it ("a parked
-#: motorcycle", "a moped parked by the road"): nobody rides it. Not "stationary" (stopped at a
-#: light with its rider on), nor a cue of a thing named after it ("near a parked van").
-PARKED_TWO_WHEELER = frozenset("parked docked abandoned".split())
-
-
-def _parked_right_there(words: Sequence[str], vehicle: Found) -> bool:
-    near = {words[j] for j in (vehicle.start - 1, vehicle.end) if 0 <= j < len(words)}
-    return bool(near & PARKED_TWO_WHEELER) or any(w in PARKED_TWO_WHEELER for w in words[vehicle.start : vehicle.end])
 
 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:
