@@ -13,7 +13,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
@@ -93,6 +93,8 @@ class RunningStack:
     stack: Stack
     bus: Bus
     runner: EpisodeRunner
+    #: per killed service, the newest state stamp (sim s) seen once it was dead (:meth:`kill_at`)
+    killed_at_s: dict[str, float] = field(default_factory=dict)
 
     def peak_rss_mb(self, service: str) -> float | None:
         """Peak resident memory (MB) of a service process and its children (e.g. the LLM worker)."""
@@ -117,15 +119,25 @@ class RunningStack:
         log.warning("killed %s (pid %d) for a fault run", service, proc.pid)
 
     def kill_at(self, service: str, sim_time_s: float) -> None:
-        """Fault run: kill ``service`` once the next episode reaches ``sim_time_s``."""
+        """Fault run: kill ``service`` once the next episode reaches ``sim_time_s``.
+
+        Once it is dead, ``killed_at_s[service]`` holds the newest state stamp (sim s) seen here:
+        under load the kill lands later than asked, and fault checks measure from when it did.
+        """
         if service not in self.stack.procs:
             raise ValueError(f"no {service} in this stack ({', '.join(self.stack.procs)})")
         fired = threading.Event()
+        newest = [0.0]
+
+        def kill_now() -> None:
+            self.kill(service)
+            self.killed_at_s[service] = newest[0]
 
         def on_state(_k: str, st: VehicleState) -> None:
+            newest[0] = max(newest[0], st.stamp)
             if st.stamp >= sim_time_s and not fired.is_set():
                 fired.set()
-                threading.Thread(target=self.kill, args=(service,), daemon=True).start()
+                threading.Thread(target=kill_now, daemon=True).start()
 
         self.bus.subscribe(key(self.runner.drone_id, Topic.STATE), VehicleState, on_state)
 
