@@ -18,21 +18,20 @@ stop" as a WordNet compound) are not mentions, except KB names of people, animal
 when what it counts follows its "of" and is a person or an animal ("a family of geese" is
 geese): the counted mention stands for it. People named without a noun are mentions: pronoun
 subjects ("he", "someone") and crowd adjectives ("a crowded beach"); so is the traffic a road's
-adjective implies ("a busy highway", "the road is congested").
+adjective implies ("a busy highway", "the road is congested"). Some verbs decide what their
+subject is ("a mustang driving down the highway" is a car, "it is grazing" an animal):
+:mod:`.subjects`.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Literal
 
+from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
-
-Status = Literal["present", "negated", "depicted"]
-Source = Literal["kb", "wordnet", "unknown"]
+from .subjects import with_verb_subjects
 
 #: The longest KB name, in words.
 MAX_NAME_WORDS = 4
@@ -143,19 +142,6 @@ def _implied_unit(entry: KbEntry | None, wordnet_class: str) -> tuple[int, str, 
 def tokenize(caption: str) -> list[str]:
     """Lower-case words; possessives folded ("people's" → "people")."""
     return [t.removesuffix("'s") for t in _TOKEN.findall(caption.lower())]
-
-
-@dataclass(frozen=True)
-class Found:
-    """One mention: a word span, what names it and whether it is there."""
-
-    start: int
-    end: int  # exclusive
-    text: str
-    word_class: str  # a KB category, a WordNet class, or "unknown"
-    source: Source
-    kb_id: str | None = None
-    status: Status = "present"
 
 
 class MentionFinder:
@@ -270,6 +256,11 @@ class MentionFinder:
         (:data:`CROWD_ADJECTIVES`): the KB's person or crowd entry, else WordNet's person class."""
         return _implied_unit(self._person if word in PERSON_PRONOUNS else self._crowd, "person")
 
+    def _implied_animal(self) -> tuple[str, Source, str | None]:
+        """An animal no noun names ("it is grazing"): the KB's animal entry, else WordNet's class."""
+        _, cls, source, kb_id = _implied_unit(self._surface.get(("animal",)), "animal")
+        return cls, source, kb_id
+
     def _compound(self, words: Sequence[str], i: int) -> tuple[int, str] | None:
         """A WordNet noun of two words ("bus stop", "car park") that names a physical thing; or
         one of three words, or one WordNet hyphenates and captions do not ("four wheel drive",
@@ -333,6 +324,7 @@ class MentionFinder:
             else:
                 i += 1
         mentions = self._with_implied(words, self._without_collectives(words, self._heads(units)))
+        mentions = with_verb_subjects(words, mentions, self.wordnet, self._implied_animal, FUNCTION_WORDS, DETERMINERS)
         mentions = self._mark_depicted(words, mentions)
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
