@@ -6,6 +6,9 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from llmland_reasoner.kb import KnowledgeBase
+from llmland_reasoner.lexicon import WordNet
+from llmland_reasoner.mentions import MentionFinder
 from llmland_reasoner.resources import Resources
 from llmland_reasoner.settings import ReasonerSettings
 
@@ -24,6 +27,12 @@ def settings(index_dir: Path) -> ReasonerSettings:
 @pytest.fixture(scope="session")
 def resources(settings: ReasonerSettings) -> Iterator[Resources]:
     yield Resources.load(settings, retrieval=True, llm=True)
+
+
+@pytest.fixture(scope="module")
+def finder(tmp_path_factory: pytest.TempPathFactory) -> MentionFinder:
+    """The mention finder on the shipped KB and WordNet (no models)."""
+    return MentionFinder(KnowledgeBase.load(), WordNet(tmp_path_factory.mktemp("wordnet")))
 
 
 @pytest.fixture()

@@ -3,14 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from llmland_reasoner.kb import KnowledgeBase
-from llmland_reasoner.lexicon import WordNet
 from llmland_reasoner.mentions import Found, MentionFinder, tokenize
-
-
-@pytest.fixture(scope="module")
-def finder(tmp_path_factory: pytest.TempPathFactory) -> MentionFinder:
-    return MentionFinder(KnowledgeBase.load(), WordNet(tmp_path_factory.mktemp("wordnet")))
 
 
 def present(found: list[Found]) -> dict[str, str]:

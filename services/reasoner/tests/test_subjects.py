@@ -4,14 +4,7 @@ from __future__ import annotations
 
 import pytest
 from llmland_reasoner.found import Found
-from llmland_reasoner.kb import KnowledgeBase
-from llmland_reasoner.lexicon import WordNet
 from llmland_reasoner.mentions import MentionFinder
-
-
-@pytest.fixture(scope="module")
-def finder(tmp_path_factory: pytest.TempPathFactory) -> MentionFinder:
-    return MentionFinder(KnowledgeBase.load(), WordNet(tmp_path_factory.mktemp("wordnet")))
 
 
 def classes(found: list[Found]) -> dict[str, str]:
