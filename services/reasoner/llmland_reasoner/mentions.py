@@ -18,9 +18,9 @@ stop" as a WordNet compound) are not mentions, except KB names of people, animal
 when what it counts follows its "of" and is a person or an animal ("a family of geese" is
 geese): the counted mention stands for it. People named without a noun are mentions: pronoun
 subjects ("he", "someone") and crowd adjectives ("a crowded beach"); so is the traffic a road's
-adjective implies ("a busy highway", "the road is congested"). Some verbs decide what their
-subject is ("a mustang driving down the highway" is a car, "it is grazing" an animal):
-:mod:`.subjects`.
+adjective implies ("a busy highway", "the road is congested"). Some verbs decide what a thing
+before them is ("a mobile crane driving along the highway" is a vehicle, "it is grazing" an
+animal): :mod:`.subjects`.
 """
 
 from __future__ import annotations

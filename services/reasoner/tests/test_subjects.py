@@ -12,19 +12,13 @@ def classes(found: list[Found]) -> dict[str, str]:
 
 
 @pytest.mark.parametrize(("caption", "word", "expected"), [
-    # only animals graze, bark, neigh...: a person word with an animal sense is that animal
-    ("a kid grazing next to its mother in the pen", "kid", "animal"),
-    ("a boxer barking at a passing cyclist", "boxer", "animal"),
-    ("the kid is grazing on the hillside", "kid", "animal"),
-    # a thing that grazes is an animal, whatever its first sense
-    ("a ram grazing on the slope", "ram", "animal"),
-    # only vehicles drive down a road: a thing or an animal word that does is a vehicle
+    # only animals graze, peck...: a thing with an animal sense that does is that animal
+    ("a ram grazing on the slope", "ram", "animal"),  # the sheep, not the tool
+    ("a crane pecking at fish in the shallows", "crane", "animal"),
+    # only vehicles drive down a road: a thing that does is a vehicle
     ("a mobile crane driving along the highway", "crane", "vehicle"),
-    ("a red mustang driving down the coastal highway", "mustang", "vehicle"),
-    ("a jaguar driving through the city centre", "jaguar", "vehicle"),
     # a word no lexicon reads, before a vehicle verb, is the vehicle
     ("a yellow tuk-tuk speeding down a narrow street", "tuk-tuk", "vehicle"),
-    ("a crane speeding along the rails", "crane", "vehicle"),
 ])
 def test_the_verb_decides_its_subject(finder: MentionFinder, caption: str, word: str, expected: str) -> None:
     assert classes(finder.find(caption))[word] == expected
@@ -37,13 +31,27 @@ def test_an_animal_verb_with_no_noun_implies_an_animal(finder: MentionFinder, ca
 
 
 @pytest.mark.parametrize(("caption", "word", "expected"), [
-    ("a man grazing his knee on the pavement", "man", "person"),  # transitive: a person's own knee
-    ("a boxer barking orders at the sparring partner", "boxer", "person"),  # an object: the person's sense
-    ("a man driving down the road", "man", "person"),  # a driver is still a person (human first)
+    # people stay people: WordNet gives "man", "worker", "baby" an animal sense (genus Homo), and a
+    # person is more careful than any animal by the caption order (a review found these)
+    ("a man barking into a phone on a busy sidewalk", "man", "person"),
+    ("a man barking at his dog in the park", "man", "person"),
+    ("men pecking away at keyboards in an office", "men", "person"),
+    ("a construction worker barking into a radio", "construction worker", "person"),
+    ("an old man grazing the sheep on the hillside", "old man", "person"),
+    ("a baby chirping in a crib", "baby", "person"),
+    ("a man grazing his knee on the pavement", "man", "person"),
+    ("a man driving down the road", "man", "person"),  # a driver is still a person
     ("a boy speeding down the hill", "boy", "person"),
-    ("a cheetah speeding across the plain", "cheetah", "animal"),  # living things may speed
+    # vehicles stay vehicles (5 m), animals stay animals (living first)
+    ("a truck grazing the guardrail on a highway", "truck", "vehicle"),
+    ("a sports car purring at a red light", "sports car", "vehicle"),
+    ("a horse driving down the road pulling a buggy", "horse", "animal"),
+    ("a cheetah speeding across the plain", "cheetah", "animal"),
     ("a man driving a tractor", "man", "person"),  # transitive: the tractor is the vehicle
     ("a hrose grazing next to a barn", "hrose", "unknown"),  # unknown stays careful (5 m), not animal (4 m)
+    # a thing is raised only to a sense WordNet gives it
+    ("a ball grazing the net", "ball", "structure"),
+    ("a wave speeding toward the shore", "wave", "terrain"),
 ])
 def test_readings_the_verbs_leave_alone(finder: MentionFinder, caption: str, word: str, expected: str) -> None:
     assert classes(finder.find(caption))[word] == expected
