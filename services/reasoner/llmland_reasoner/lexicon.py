@@ -174,6 +174,13 @@ class WordNet:
         self.noun_class = lru_cache(maxsize=65536)(self._noun_class)
         self.lemma = lru_cache(maxsize=65536)(self._lemma)
         self.senses = lru_cache(maxsize=16384)(self._senses_of)
+        # Part-of-speech tests read SemCor counts, which NLTK looks up in its count file on every
+        # call (a binary search of the file): cached per word, they cost nothing after a word's
+        # first caption (the mention finder was 90 % count lookups without these).
+        self.is_known = lru_cache(maxsize=65536)(self._is_known)
+        self.is_adjective = lru_cache(maxsize=65536)(self._is_adjective)
+        self.mostly_verb = lru_cache(maxsize=65536)(self._mostly_verb)
+        self.is_verb = lru_cache(maxsize=65536)(self._is_verb)
 
     def _lemma(self, word: str) -> str:
         """The noun lemma ("people" stays, "geese" → "goose", "fields" → "field", not the
@@ -204,12 +211,12 @@ class WordNet:
     def is_noun(self, word: str) -> bool:
         return bool(self._senses(word))
 
-    def is_known(self, word: str) -> bool:
+    def _is_known(self, word: str) -> bool:
         """Whether WordNet has the word in any part of speech (after lemmatising)."""
         with self._lock:
             return any(self._wn.morphy(word, pos) for pos in ("n", "v", "a", "r"))
 
-    def is_adjective(self, word: str) -> bool:
+    def _is_adjective(self, word: str) -> bool:
         """Whether the word is used as an adjective more than as a noun (SemCor counts; an
         adjective with no counts either way): "green", "lush", "young" yes; "beetle" no."""
         with self._lock:
@@ -221,7 +228,7 @@ class WordNet:
             a_count = sum(lemma.count() for s in adj for lemma in s.lemmas() if lemma.name().lower() == word)
         return a_count >= n_count
 
-    def mostly_verb(self, word: str) -> bool:
+    def _mostly_verb(self, word: str) -> bool:
         """Whether the word is used as a verb more than as a noun (SemCor counts): "pass",
         "surfs", "stands" yes; "dog", "train" no."""
         with self._lock:
@@ -233,7 +240,7 @@ class WordNet:
             n_count = sum(lm.count() for s in self._wn.synsets(noun, "n") for lm in s.lemmas() if lm.name() == noun)
         return v_count > n_count
 
-    def is_verb(self, word: str) -> bool:
+    def _is_verb(self, word: str) -> bool:
         with self._lock:
             return bool(self._wn.synsets(word.replace(" ", "_"), "v"))
 

@@ -69,3 +69,12 @@ def test_unknown_and_part_of_speech(wordnet: WordNet) -> None:
     assert wordnet.noun_class("quokka") is None and not wordnet.is_known("arafed")
     assert wordnet.is_adjective("green") and wordnet.is_adjective("lush") and not wordnet.is_adjective("beetle")
     assert wordnet.mostly_verb("stands") and wordnet.mostly_verb("swings") and not wordnet.mostly_verb("dog")
+
+
+def test_part_of_speech_tests_are_cached_per_word(wordnet: WordNet) -> None:
+    """SemCor counts are a file search per call in NLTK: a word's second test must not repeat it."""
+    for test in (wordnet.is_adjective, wordnet.mostly_verb, wordnet.is_known, wordnet.is_verb):
+        first = test("surfs")
+        hits = test.cache_info().hits  # type: ignore[attr-defined]
+        assert test("surfs") == first
+        assert test.cache_info().hits == hits + 1  # type: ignore[attr-defined]
