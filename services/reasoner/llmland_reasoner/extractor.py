@@ -107,10 +107,8 @@ class SpecExtractor:
                 return self._fallback(caption, started, too_long)
             future = self._worker.submit(self._under_deadline(self._compute), key, caption)
             return future.result(timeout=self.settings.timeout_s)
-        except FutureTimeout:
-            return self._fallback(caption, started, f"timeout after {self.settings.timeout_s} s")
         except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
-            return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+            return self._fallback(caption, started, self._error_text(exc))
 
     def extract_many(self, captions: Sequence[str]) -> list[Extraction]:
         """:meth:`extract_detailed` for several captions at once (``batch.py``): cache hits
@@ -141,10 +139,8 @@ class SpecExtractor:
             try:
                 done = self._worker.submit(self._under_deadline(self._compute_many), keys, first).result(
                     timeout=self.settings.timeout_s)
-            except FutureTimeout:
-                done = [self._fallback(c, started, f"timeout after {self.settings.timeout_s} s") for c in first]
             except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
-                done = [self._fallback(c, started, f"{type(exc).__name__}: {exc}") for c in first]
+                done = [self._fallback(c, started, self._error_text(exc)) for c in first]
             for key, result in zip(keys, done, strict=True):
                 for i in todo[key]:
                     spec = result.spec.model_copy(update={"caption": captions[i], "latency_ms": _ms(started)})
@@ -219,7 +215,7 @@ class SpecExtractor:
             outcome = self._run(key[0])
         except Exception as exc:  # noqa: BLE001
             log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, exc)
-            return self._fallback(caption, started, f"{type(exc).__name__}: {exc}")
+            return self._fallback(caption, started, self._error_text(exc))
         return self._finish(key, caption, outcome, started)
 
     def _compute_many(self, keys: list[CacheKey], captions: list[str]) -> list[Extraction]:
@@ -229,7 +225,7 @@ class SpecExtractor:
         for key, caption, outcome in zip(keys, captions, outcomes, strict=True):
             if isinstance(outcome, Exception):
                 log.warning("spec extraction failed (%s) for %r: %s", self.mode, caption, outcome)
-                out.append(self._fallback(caption, started, f"{type(outcome).__name__}: {outcome}"))
+                out.append(self._fallback(caption, started, self._error_text(outcome)))
             else:
                 out.append(self._finish(key, caption, outcome, started))
         return out
@@ -272,6 +268,14 @@ class SpecExtractor:
             return run_llm(caption, res, s.max_new_tokens, s.temperature)
         return run_rag(caption, res, s.rag_context_in_prompt, s.rag_pointer, s.every_mention, self._decider(),
                        s.rag_llm_when_needed)
+
+    def _error_text(self, exc: BaseException) -> str:
+        """The fallback's reason. The caller's time limit reads the same whichever side saw it
+        first: the caller's wait (``FutureTimeout``) or the work's own deadline check
+        (:class:`.deadline.DeadlineExceededError`), which race by microseconds at ``timeout_s``."""
+        if isinstance(exc, FutureTimeout | deadline.DeadlineExceededError):
+            return f"timeout after {self.settings.timeout_s} s"
+        return f"{type(exc).__name__}: {exc}"
 
     def _fallback(self, caption: str, started: float, error: str) -> Extraction:
         log.warning("conservative fallback for %r: %s", caption, error)

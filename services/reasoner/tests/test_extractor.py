@@ -6,7 +6,9 @@ from collections.abc import Sequence
 from dataclasses import replace
 
 import pytest
+from llmland_reasoner import deadline
 from llmland_reasoner.extractor import SpecExtractor
+from llmland_reasoner.pipeline import normalize_caption
 from llmland_reasoner.resources import Resources
 from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, SafetySpec
 
@@ -186,6 +188,21 @@ def test_work_the_caller_stopped_waiting_for_stops_and_frees_the_worker(resource
     calls = sleepy.calls
     time.sleep(0.5)
     assert sleepy.calls == calls  # nothing is still scoring the abandoned caption
+    extractor.close()
+
+
+def test_the_work_noticing_the_deadline_first_reads_as_the_same_timeout(resources: Resources) -> None:
+    """The caller's wait and the work's own deadline check end at the same ``timeout_s`` and race
+    by microseconds: whichever sees it first, the fallback says the same thing (the full suite
+    once got "DeadlineExceededError: ..." where the caller's wait says "timeout after ...")."""
+    settings = resources.settings.model_copy(update={"timeout_s": 0.5, "rag_pointer": "llm"})
+    extractor = SpecExtractor("rag", settings=settings,
+                              resources=replace(resources, backend=SleepyBackend(step_s=0.1)))
+    caption = " ".join(["a crane, a seal, a cab and a kite"] * 10)
+    key = (normalize_caption(caption), resources.kb.version, "rag")
+    with deadline.deadline_at(time.monotonic()):  # the caller has just stopped waiting
+        result = extractor._compute(key, caption)  # noqa: SLF001 - the worker's side of the race
+    assert result.spec.source == "fallback" and result.error == "timeout after 0.5 s"
     extractor.close()
 
 
