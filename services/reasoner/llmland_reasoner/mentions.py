@@ -32,6 +32,7 @@ from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
 from .subjects import with_verb_subjects
+from .words import COPULAS, DETERMINERS, FUNCTION_WORDS
 
 #: The longest KB name, in words.
 MAX_NAME_WORDS = 4
@@ -44,22 +45,8 @@ COORDINATORS = frozenset({"or", "nor"})
 HEDGES = frozenset("almost nearly hardly barely virtually practically scarcely".split())
 #: Words between a negator and a noun that end the negation ("no one but a man", "no, a dog").
 NEGATION_STOP = frozenset({"one", "body", "but", "except", "besides", "apart", "only", "just", "save", ",", ";"})
-DETERMINERS = frozenset(
-    "a an the this that these those some many several few two three four five six seven eight nine ten "
-    "dozens lots lot numerous various one another each every other".split()
-)
 #: words after which a new noun phrase starts
 NOUN_PHRASE_CONJUNCTIONS = frozenset({"and", "or", "nor"})
-#: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
-FUNCTION_WORDS = frozenset(
-    "a an the of on in at to by with and or nor is are was were be been being there here that this these those "
-    "its it his her their them they he she we you i my our your some near next over under behind along across "
-    "through into onto from for while as up down out off around above below beside between beneath inside "
-    "outside toward towards against upon among amongst via per than then also very too no not without "
-    "has have had do does did can could will would may might must shall should who whom whose which what "
-    "where when why how all both each every any few many much more most other such only own same so just "
-    "away back together front top side middle left right far close".split()
-)
 #: Nouns that count what follows "of" ("a couple of playgrounds", "lots of cars"): not mentions.
 QUANTIFIERS = frozenset(
     "couple pair lot lots number bunch dozen dozens handful set series row rows line lines kind kinds sort "
@@ -85,7 +72,6 @@ TRAFFIC_ROADS = frozenset(
     "road roads street streets highway highways freeway freeways motorway motorways expressway expressways "
     "interstate avenue avenues boulevard intersection intersections junction roundabout".split()
 )
-COPULAS = frozenset("is are was were looks seems".split())
 #: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
 _PLACE_CLASSES = frozenset({"terrain", "unknown"})
 #: How many words may stand between a collective noun's "of" and what it counts ("a family of
@@ -324,7 +310,7 @@ class MentionFinder:
             else:
                 i += 1
         mentions = self._with_implied(words, self._without_collectives(words, self._heads(units)))
-        mentions = with_verb_subjects(words, mentions, self.wordnet, self._implied_animal, FUNCTION_WORDS, DETERMINERS)
+        mentions = with_verb_subjects(words, mentions, self.wordnet, self._implied_animal)
         mentions = self._mark_depicted(words, mentions)
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)

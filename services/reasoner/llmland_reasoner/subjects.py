@@ -29,6 +29,7 @@ from dataclasses import replace
 
 from .found import Found, Source
 from .lexicon import WordNet
+from .words import AUXILIARIES, DETERMINERS, FUNCTION_WORDS
 
 #: Verbs, as captions write them, that only animals do: their subject is an animal. Not the ones
 #: people do too ("sniffing a flower", "roaming", "howling", "trotting").
@@ -41,13 +42,12 @@ DRIVING_VERBS = frozenset({"driving"})
 #: Verbs a vehicle does though other things may too ("speeding"): a thing is raised only to a
 #: vehicle sense WordNet gives it.
 MOVING_VERBS = frozenset({"speeding"})
+VERBS = ANIMAL_VERBS | DRIVING_VERBS | MOVING_VERBS
 #: Words that make "driving" intransitive: a direction or a place follows.
 DIRECTIONS = frozenset(
     "down along up across through past into onto toward towards around over on in away off by out under "
     "uphill downhill".split()
 )
-#: Words between a subject and its verb ("the kid is grazing").
-COPULAS = frozenset("is are was were".split())
 #: Subjects that name no thing: an animal verb after one implies an animal ("it is grazing").
 PRONOUNS = frozenset("it they something".split())
 #: Words before an implied subject that say nothing is there ("no longer grazing" is not this).
@@ -60,9 +60,9 @@ Implied = Callable[[], tuple[str, Source, str | None]]
 
 
 def _subject(words: Sequence[str], j: int, at_end: dict[int, Found]) -> tuple[Found | None, int]:
-    """The mention right before the verb at ``j`` (a copula may stand between), and where the
+    """The mention right before the verb at ``j`` (an auxiliary may stand between), and where the
     subject's last word is."""
-    k = j - 1 if j >= 1 and words[j - 1] not in COPULAS else j - 2
+    k = j - 1 if j >= 1 and words[j - 1] not in AUXILIARIES else j - 2
     return at_end.get(k + 1), k
 
 
@@ -72,24 +72,25 @@ def _has_sense(wordnet: WordNet, text: str, word_class: str) -> bool:
     return any(s.word_class == word_class and not s.group for s in senses)
 
 
-def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: WordNet, animal: Implied,
-                       function_words: frozenset[str], determiners: frozenset[str]) -> list[Found]:
+def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: WordNet, animal: Implied) -> list[Found]:
     """``mentions`` with the subjects of :data:`ANIMAL_VERBS`, :data:`DRIVING_VERBS` and
     :data:`MOVING_VERBS` read as the verb says (see the module docstring). ``animal()``: the
-    (class, source, kb id) of an animal no noun names. ``function_words`` are never a subject;
-    after one of ``determiners`` the verb qualifies a noun ("a grazing field", "a speeding car")."""
+    (class, source, kb id) of an animal no noun names. After a determiner the verb qualifies a
+    noun ("a grazing field", "a speeding car")."""
     at_end = {m.end: m for m in mentions}
     out = {m.start: m for m in mentions}
     added: list[Found] = []
     for j, verb in enumerate(words):
+        if verb not in VERBS:
+            continue
         nxt = words[j + 1] if j + 1 < len(words) else ""
         subject, k = _subject(words, j, at_end)
         before = words[k] if k >= 0 else ""
-        if before in determiners:
+        if before in DETERMINERS:
             continue
         if verb in ANIMAL_VERBS:
             if subject is None:
-                if before and before not in function_words and before not in PRONOUNS:
+                if before and before not in FUNCTION_WORDS and before not in PRONOUNS:
                     continue  # a word no rule reads as a noun: its own mention, if any, decides
                 if any(w in NOTHING for w in words[max(0, k - 1) : j]):
                     continue
@@ -99,7 +100,7 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
                 out[subject.start] = replace(subject, word_class="animal", source="wordnet", kb_id=None)
         elif (verb in DRIVING_VERBS and nxt in DIRECTIONS) or verb in MOVING_VERBS:
             if subject is None:
-                if _unread_noun(wordnet, before, function_words, verb in DRIVING_VERBS) \
+                if _unread_noun(wordnet, before, verb in DRIVING_VERBS) \
                         and not any(m.start <= k < m.end for m in mentions):
                     added.append(Found(k, k + 1, before, "vehicle", "wordnet"))  # "a yellow tuk-tuk speeding"
             elif subject.word_class not in SETTLED and (
@@ -108,9 +109,9 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
     return sorted([*out.values(), *added], key=lambda m: (m.start, m.end))
 
 
-def _unread_noun(wordnet: WordNet, word: str, function_words: frozenset[str], any_noun: bool) -> bool:
+def _unread_noun(wordnet: WordNet, word: str, any_noun: bool) -> bool:
     """A word in a noun's place that no rule read: one WordNet lacks ("tuk-tuk"), or with
     ``any_noun`` (a thing driving down a road) also a WordNet noun."""
-    if not word or word in function_words or word in PRONOUNS or not word.replace("-", "").isalpha():
+    if not word or word in FUNCTION_WORDS or word in PRONOUNS or not word.replace("-", "").isalpha():
         return False
     return not wordnet.is_known(word) or (any_noun and wordnet.is_noun(wordnet.lemma(word)))

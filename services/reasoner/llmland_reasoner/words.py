@@ -1,0 +1,24 @@
+"""Closed word classes of captions, shared by the mention finder (:mod:`.mentions`) and the
+verb rules (:mod:`.subjects`)."""
+
+from __future__ import annotations
+
+#: Words that open a noun phrase (articles, demonstratives, quantities).
+DETERMINERS = frozenset(
+    "a an the this that these those some many several few two three four five six seven eight nine ten "
+    "dozens lots lot numerous various one another each every other".split()
+)
+#: Never a mention (articles, pronouns, prepositions, auxiliaries, common adverbs).
+FUNCTION_WORDS = frozenset(
+    "a an the of on in at to by with and or nor is are was were be been being there here that this these those "
+    "its it his her their them they he she we you i my our your some near next over under behind along across "
+    "through into onto from for while as up down out off around above below beside between beneath inside "
+    "outside toward towards against upon among amongst via per than then also very too no not without "
+    "has have had do does did can could will would may might must shall should who whom whose which what "
+    "where when why how all both each every any few many much more most other such only own same so just "
+    "away back together front top side middle left right far close".split()
+)
+#: Auxiliaries between a subject and its verb ("the kid is grazing").
+AUXILIARIES = frozenset("is are was were".split())
+#: Verbs between a noun and the adjective that describes it ("the road is congested", "looks busy").
+COPULAS = AUXILIARIES | frozenset({"looks", "seems"})
