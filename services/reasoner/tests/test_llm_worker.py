@@ -192,3 +192,24 @@ def test_a_worker_dying_in_its_prefix_warm_up_is_a_crash_not_a_dead_reasoner(
             b.score(PREFIX, "x", [" y"], True)
     finally:
         b.close()
+
+
+def test_a_restarted_worker_restores_its_warm_prefix_from_disk(tmp_path: Path) -> None:
+    """The warm-up's evaluated prefix is saved by the first worker; a second one (a restart,
+    the next start of the service) finds it and answers the same."""
+    prefix = PREFIX * 8
+    args = (prefix, "Caption: a dog on a road\nObstacle:", [" dog", " road"], True)
+    first = WorkerLlmBackend(n_threads=1, call_timeout_s=20.0, warm_prefixes=[prefix], state_dir=tmp_path)
+    try:
+        answer = first.score(*args)
+    finally:
+        first.close()
+    saved = list(tmp_path.glob("*.kvstate"))
+    assert len(saved) == 1
+    stamp = saved[0].stat().st_mtime_ns
+    second = WorkerLlmBackend(n_threads=1, call_timeout_s=20.0, warm_prefixes=[prefix], state_dir=tmp_path)
+    try:
+        assert second.score(*args) == answer
+    finally:
+        second.close()
+    assert [p.stat().st_mtime_ns >= stamp for p in tmp_path.glob("*.kvstate")] == [True]  # read, not a new file

@@ -30,6 +30,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from llmland_schemas import (
     ControlCommand,
@@ -50,7 +51,9 @@ from .mailbox import CommandMailbox
 from .perception_clock import LatencyModel, PerceptionClock
 from .settings import SimSettings
 from .simulation import Simulation
-from .viz import SimRecorder
+
+if TYPE_CHECKING:  # rerun is imported (≈1.5 s) only by an episode that records
+    from .viz import SimRecorder
 
 log = logging.getLogger("llmland.sim")
 
@@ -144,6 +147,10 @@ class SimService:
     def _begin(self, mission: MissionGoal) -> MissionGoal:
         """Build the world, announce the resolved mission, set up the clock and the recorder."""
         s, sim = self.settings, self.sim
+        rrd = mission.rrd_path or s.rrd
+        recording = rrd is not None or bool(s.rerun_connect)
+        if recording:  # imported before the episode's wall clock starts (sim.reset)
+            from .viz import SimRecorder
         self.commands.clear()
         sim.reset(mission)
         self.walls = WallTimes()
@@ -161,8 +168,7 @@ class SimService:
                       if lockstep and mission.perception != "none" else None)
         self.current = mission
         self.bus.publish(self.k[Topic.MISSION], mission)
-        rrd = mission.rrd_path or s.rrd
-        if rrd is not None or s.rerun_connect:
+        if recording:
             self.recorder = SimRecorder(mission.episode_id, rrd=Path(rrd) if rrd else None,
                                         connect_url=s.rerun_connect)
         return mission

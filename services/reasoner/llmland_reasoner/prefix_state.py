@@ -1,0 +1,114 @@
+"""Evaluated prompt prefixes kept on disk, so a restarted reasoner does not evaluate them again.
+
+Every reasoner start (and every restart of its LLM worker) evaluated the fixed prompt prefix —
+426 tokens for ``rag``, ≈ 4.5 s of llama.cpp on one core of the 2-core machine, a third of the
+service's start-up. The KV state that evaluation leaves is a function of the tokens, the model
+file, the context size and the llama.cpp build alone, so it is saved once
+(``llama_state_seq_get_data``, ≈ 10 MB for SmolLM2-135M) and restored on the next start
+(``llama_state_seq_set_data``) — the same restore :class:`~.llm.LlamaCppBackend` already does in
+memory when it switches between prompts.
+
+The file name is a digest of everything the state depends on: the prefix's tokens, the GGUF
+file (path, size, modification time), ``n_ctx`` and ``n_batch``, the llama-cpp-python version and
+its shared libraries (path, size, modification time: the portable and a native build compute
+slightly different floats, and a rebuilt runtime gets new files). Each file starts with the
+SHA-256 of its state: a file that cannot be read, does not match its digest or cannot be
+restored is ignored (and removed) and the prefix evaluated as before; writes go to a temporary
+file renamed into place, so concurrent services never read half a file. At most
+:data:`MAX_FILES` are kept.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+from pathlib import Path
+
+log = logging.getLogger(__name__)
+
+#: state files kept per folder (the newest by modification time); a few prompts × models
+MAX_FILES = 16
+SUFFIX = ".kvstate"
+_DIGEST_BYTES = 32
+
+
+def default_state_dir() -> Path:
+    return Path.home() / ".cache" / "llmland" / "llm-prefix-state"
+
+
+def _file_identity(path: Path) -> str:
+    st = path.stat()
+    return f"{path.resolve()}:{st.st_size}:{st.st_mtime_ns}"
+
+
+def _remove(path: Path) -> None:
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:  # not ours to remove, or the folder is not one: nothing to clean
+        pass
+
+
+def runtime_identity() -> str:
+    """The llama-cpp-python version and the identity of every shared library it ships."""
+    import llama_cpp
+
+    lib_dir = Path(llama_cpp.__file__).parent / "lib"
+    libs = sorted(p for p in lib_dir.glob("*.so*") if p.is_file()) if lib_dir.is_dir() else []
+    return ";".join([f"llama-cpp-python {llama_cpp.__version__}", *(_file_identity(p) for p in libs)])
+
+
+class PrefixStateStore:
+    """Saved KV states of evaluated prompt prefixes for one model, context and runtime."""
+
+    def __init__(self, folder: Path, model_path: Path, n_ctx: int, n_batch: int) -> None:
+        self.folder = folder
+        self._context = f"{runtime_identity()}|{_file_identity(model_path)}|n_ctx={n_ctx}|n_batch={n_batch}"
+
+    def path(self, tokens: list[int]) -> Path:
+        digest = hashlib.sha256(f"{self._context}|{','.join(map(str, tokens))}".encode()).hexdigest()[:32]
+        return self.folder / f"{digest}{SUFFIX}"
+
+    def load(self, tokens: list[int]) -> bytes | None:
+        """The saved state for ``tokens``, or None (never saved, or unreadable)."""
+        path = self.path(tokens)
+        try:
+            raw = path.read_bytes()
+        except OSError:
+            return None
+        digest, data = raw[:_DIGEST_BYTES], raw[_DIGEST_BYTES:]
+        if hashlib.sha256(data).digest() != digest:
+            log.warning("prompt prefix state %s is damaged; ignored", path)
+            self.discard(tokens)
+            return None
+        try:
+            os.utime(path)  # recently used: kept by the pruning below
+        except OSError:
+            pass
+        return data
+
+    def save(self, tokens: list[int], data: bytes) -> None:
+        """Write the state atomically; a folder that cannot be written is only logged."""
+        path = self.path(tokens)
+        tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            tmp.write_bytes(hashlib.sha256(data).digest() + data)
+            os.replace(tmp, path)
+        except OSError as exc:
+            log.info("prompt prefix state not saved in %s: %s", self.folder, exc)
+            _remove(tmp)
+            return
+        self._prune()
+
+    def discard(self, tokens: list[int]) -> None:
+        """Forget a state that could not be restored."""
+        _remove(self.path(tokens))
+
+    def _prune(self) -> None:
+        try:
+            files = sorted(self.folder.glob(f"*{SUFFIX}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
+            for old in files[MAX_FILES:]:
+                _remove(old)
+        except OSError:  # another process pruned the same file first
+            pass
