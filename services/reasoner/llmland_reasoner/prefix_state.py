@@ -54,7 +54,8 @@ def runtime_identity() -> str:
     import llama_cpp
 
     lib_dir = Path(llama_cpp.__file__).parent / "lib"
-    libs = sorted(p for p in lib_dir.glob("*.so*") if p.is_file()) if lib_dir.is_dir() else []
+    libs = sorted(p for pattern in ("*.so*", "*.dylib", "*.dll") for p in lib_dir.glob(pattern)
+                  if p.is_file()) if lib_dir.is_dir() else []
     return ";".join([f"llama-cpp-python {llama_cpp.__version__}", *(_file_identity(p) for p in libs)])
 
 

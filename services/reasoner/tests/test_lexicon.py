@@ -48,10 +48,11 @@ def test_the_lemma_index_is_parsed_once_and_read_back_the_same(tmp_path: Path) -
     again = WordNet(tmp_path)  # reads the saved index instead of the four index files
     assert again._wn._lemma_pos_offset_map == parsed._wn._lemma_pos_offset_map
     assert again.noun_class("giraffe") == "animal" and again.lemma("geese") == "goose"
-    saved.write_bytes(b"\x00damaged")
-    rebuilt = WordNet(tmp_path)  # a damaged file is parsed again and rewritten
-    assert rebuilt._wn._lemma_pos_offset_map == parsed._wn._lemma_pos_offset_map
-    assert saved.stat().st_size > 1_000_000
+    for damage in (b"\x00damaged", saved.read_bytes()[:-1000]):  # garbage; a truncated file
+        saved.write_bytes(damage)
+        rebuilt = WordNet(tmp_path)  # parsed again and rewritten
+        assert rebuilt._wn._lemma_pos_offset_map == parsed._wn._lemma_pos_offset_map
+        assert saved.stat().st_size > 1_000_000
 
 
 def test_beyond_kb_nouns_are_not_kb_names() -> None:
