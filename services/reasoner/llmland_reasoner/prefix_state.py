@@ -25,12 +25,13 @@ import logging
 import os
 from pathlib import Path
 
+from .checked_file import DamagedFileError, read_checked, remove, write_checked
+
 log = logging.getLogger(__name__)
 
 #: state files kept per folder (the newest by modification time); a few prompts × models
 MAX_FILES = 16
 SUFFIX = ".kvstate"
-_DIGEST_BYTES = 32
 
 
 def default_state_dir() -> Path:
@@ -40,13 +41,6 @@ def default_state_dir() -> Path:
 def _file_identity(path: Path) -> str:
     st = path.stat()
     return f"{path.resolve()}:{st.st_size}:{st.st_mtime_ns}"
-
-
-def _remove(path: Path) -> None:
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:  # not ours to remove, or the folder is not one: nothing to clean
-        pass
 
 
 def runtime_identity() -> str:
@@ -71,45 +65,38 @@ class PrefixStateStore:
         return self.folder / f"{digest}{SUFFIX}"
 
     def load(self, tokens: list[int]) -> bytes | None:
-        """The saved state for ``tokens``, or None (never saved, or unreadable)."""
+        """The saved state for ``tokens``, or None (never saved, unreadable or damaged)."""
         path = self.path(tokens)
         try:
-            raw = path.read_bytes()
-        except OSError:
-            return None
-        digest, data = raw[:_DIGEST_BYTES], raw[_DIGEST_BYTES:]
-        if hashlib.sha256(data).digest() != digest:
+            data = read_checked(path)
+        except DamagedFileError:
             log.warning("prompt prefix state %s is damaged; ignored", path)
             self.discard(tokens)
             return None
-        try:
-            os.utime(path)  # recently used: kept by the pruning below
-        except OSError:
-            pass
+        if data is not None:
+            try:
+                os.utime(path)  # recently used: kept by the pruning below
+            except OSError:
+                pass
         return data
 
     def save(self, tokens: list[int], data: bytes) -> None:
         """Write the state atomically; a folder that cannot be written is only logged."""
-        path = self.path(tokens)
-        tmp = path.with_name(f"{path.name}.tmp{os.getpid()}")
         try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-            tmp.write_bytes(hashlib.sha256(data).digest() + data)
-            os.replace(tmp, path)
+            write_checked(self.path(tokens), data)
         except OSError as exc:
             log.info("prompt prefix state not saved in %s: %s", self.folder, exc)
-            _remove(tmp)
             return
         self._prune()
 
     def discard(self, tokens: list[int]) -> None:
         """Forget a state that could not be restored."""
-        _remove(self.path(tokens))
+        remove(self.path(tokens))
 
     def _prune(self) -> None:
         try:
             files = sorted(self.folder.glob(f"*{SUFFIX}"), key=lambda p: p.stat().st_mtime_ns, reverse=True)
             for old in files[MAX_FILES:]:
-                _remove(old)
+                remove(old)
         except OSError:  # another process pruned the same file first
             pass
