@@ -32,7 +32,7 @@ from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
 from .subjects import with_verb_subjects
-from .words import COPULAS, DETERMINERS, FUNCTION_WORDS
+from .words import COPULAS, DETERMINERS, FUNCTION_WORDS, PARKED
 
 #: The longest KB name, in words.
 MAX_NAME_WORDS = 4
@@ -91,8 +91,6 @@ SHORT_NOUN_CLASSES = frozenset({"vehicle"})
 ARTICLES = frozenset({"a", "an", "the"})
 #: Care order of the classes a newly found compound may take over a span with (``_compound``).
 _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
-#: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
-PARKED = frozenset({"parked", "docked", "moored"})
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
 #: never read as depictions ("a billboard with a picture of a car" keeps the car: ambiguous,
 #: so careful).

@@ -20,6 +20,16 @@ or "speeding" only to a sense WordNet gives the word ("a ball grazing the net", 
 chirping", "a wave speeding toward the shore" stay what they are); "driving" down or along a
 road raises any thing, since only vehicles do it. A mention the verb raises keeps its status
 (negated, depicted).
+
+A pronoun that may stand for anyone or anything (:data:`AGENT_PRONOUNS`: "they", "it",
+"something", "these", "those") as the subject of a verb of action ("they are setting up tents",
+"it is moving toward the camera", "something is crossing the road", "those are parked near the
+gate") names an agent no noun does: a person, an animal or a vehicle, nobody can tell which.
+Its mention is an ``unknown`` one, which the spec answers with the careful fallback (moving,
+the largest buffer), as it does an unknown noun; the animal verbs still imply an animal. Not
+the impersonal "it" ("it is raining", "it is getting dark", "it is surprising that...", "it is
+going to rain"). The rule over-reads a pronoun before an adjective in -ing ("they are
+amazing"): more careful, never less.
 """
 
 from __future__ import annotations
@@ -29,7 +39,7 @@ from dataclasses import replace
 
 from .found import Found, Source
 from .lexicon import WordNet
-from .words import AUXILIARIES, DETERMINERS, FUNCTION_WORDS
+from .words import AUXILIARIES, DETERMINERS, FUNCTION_WORDS, PARKED
 
 #: Verbs, as captions write them, that only animals do: their subject is an animal. Not the ones
 #: people do too ("sniffing a flower", "roaming", "howling", "trotting").
@@ -50,6 +60,16 @@ DIRECTIONS = frozenset(
 )
 #: Subjects that name no thing: an animal verb after one implies an animal ("it is grazing").
 PRONOUNS = frozenset("it they something".split())
+#: Pronouns that may stand for a person, an animal or a vehicle: the subject of a verb of action
+#: after one is an agent no noun names (module docstring).
+AGENT_PRONOUNS = frozenset("it they something these those".split())
+#: Verbs of the impersonal "it" ("it is raining", "it is getting dark"): no agent.
+IMPERSONAL_VERBS = frozenset("raining snowing drizzling hailing sleeting pouring getting becoming".split())
+#: After "it is ...ing", these open the clause the "it" stands for ("it is surprising that...",
+#: "it is going to rain"): the "it" is no agent.
+EXTRAPOSED = frozenset("that to how what whether why".split())
+#: The shortest word read as a verb in -ing ("sing" is not one: "bring" has 5 letters).
+MIN_ING_VERB_LETTERS = 5
 #: Words before an implied subject that say nothing is there ("no longer grazing" is not this).
 NOTHING = frozenset("no nothing none without".split())
 #: Classes a verb never changes: each is at least as careful as any reading a verb could give
@@ -81,32 +101,46 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
     out = {m.start: m for m in mentions}
     added: list[Found] = []
     for j, verb in enumerate(words):
-        if verb not in VERBS:
+        if verb not in VERBS and not _acting(wordnet, verb):
             continue
         nxt = words[j + 1] if j + 1 < len(words) else ""
         subject, k = _subject(words, j, at_end)
         before = words[k] if k >= 0 else ""
-        if before in DETERMINERS:
-            continue
+        if before in DETERMINERS and k == j - 1:
+            continue  # "a grazing field", "a speeding car": the verb qualifies a noun
+        nothing_there = any(w in NOTHING for w in words[max(0, k - 1) : j])
         if verb in ANIMAL_VERBS:
             if subject is None:
                 if before and before not in FUNCTION_WORDS and before not in PRONOUNS:
                     continue  # a word no rule reads as a noun: its own mention, if any, decides
-                if any(w in NOTHING for w in words[max(0, k - 1) : j]):
+                if nothing_there:
                     continue
                 cls, source, kb_id = animal()
                 added.append(Found(j, j + 1, verb, cls, source, kb_id))
             elif subject.word_class not in SETTLED and _has_sense(wordnet, subject.text, "animal"):
                 out[subject.start] = replace(subject, word_class="animal", source="wordnet", kb_id=None)
-        elif (verb in DRIVING_VERBS and nxt in DIRECTIONS) or verb in MOVING_VERBS:
-            if subject is None:
-                if _unread_noun(wordnet, before, verb in DRIVING_VERBS) \
-                        and not any(m.start <= k < m.end for m in mentions):
-                    added.append(Found(k, k + 1, before, "vehicle", "wordnet"))  # "a yellow tuk-tuk speeding"
-            elif subject.word_class not in SETTLED and (
-                    verb in DRIVING_VERBS or _has_sense(wordnet, subject.text, "vehicle")):
-                out[subject.start] = replace(subject, word_class="vehicle", source="wordnet", kb_id=None)
+            continue
+        if (verb in DRIVING_VERBS and nxt in DIRECTIONS) or verb in MOVING_VERBS:
+            if subject is not None:
+                if subject.word_class not in SETTLED and (
+                        verb in DRIVING_VERBS or _has_sense(wordnet, subject.text, "vehicle")):
+                    out[subject.start] = replace(subject, word_class="vehicle", source="wordnet", kb_id=None)
+                continue
+            if _unread_noun(wordnet, before, verb in DRIVING_VERBS) and not any(m.start <= k < m.end for m in mentions):
+                added.append(Found(k, k + 1, before, "vehicle", "wordnet"))  # "a yellow tuk-tuk speeding"
+                continue
+        if subject is None and before in AGENT_PRONOUNS and not nothing_there \
+                and not (before == "it" and (verb in IMPERSONAL_VERBS or nxt in EXTRAPOSED)):
+            added.append(Found(j, j + 1, verb, "unknown", "unknown"))  # "they are setting up tents"
     return sorted([*out.values(), *added], key=lambda m: (m.start, m.end))
+
+
+def _acting(wordnet: WordNet, word: str) -> bool:
+    """A verb of action as captions write it: a present participle ("crossing", "setting")
+    or "parked" (:data:`~.words.PARKED`)."""
+    if word in PARKED:
+        return True
+    return len(word) >= MIN_ING_VERB_LETTERS and word.endswith("ing") and word.isalpha() and wordnet.is_verb(word)
 
 
 def _unread_noun(wordnet: WordNet, word: str, any_noun: bool) -> bool:

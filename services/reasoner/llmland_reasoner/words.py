@@ -18,6 +18,8 @@ FUNCTION_WORDS = frozenset(
     "where when why how all both each every any few many much more most other such only own same so just "
     "away back together front top side middle left right far close".split()
 )
+#: A noun right before one of these is a vehicle, whatever else WordNet says it is ("a beetle parked").
+PARKED = frozenset({"parked", "docked", "moored"})
 #: Auxiliaries between a subject and its verb ("the kid is grazing").
 AUXILIARIES = frozenset("is are was were".split())
 #: Verbs between a noun and the adjective that describes it ("the road is congested", "looks busy").

@@ -52,6 +52,15 @@ def test_unknown_nouns_are_careful(extractor: SpecExtractor) -> None:
     assert spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M and spec.label == "unknown"
 
 
+@pytest.mark.parametrize("caption", ["they are crossing the road", "it is driving down the street",
+                                     "something is moving near the fence"])
+def test_a_pronoun_doing_something_gets_the_careful_spec(extractor: SpecExtractor, caption: str) -> None:
+    """Anyone or anything may be "they" or "it": the road or fence named after it is not the
+    subject (was: a static road, 0 m)."""
+    spec = extractor.extract(caption)
+    assert spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M and spec.is_human is not False, spec
+
+
 def test_negation_and_depiction(extractor: SpecExtractor) -> None:
     assert not extractor.extract("an empty street with no cars or people").is_dynamic
     assert not extractor.extract("a bronze statue of a man on a horse").is_dynamic
