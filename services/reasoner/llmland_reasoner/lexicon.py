@@ -217,6 +217,7 @@ class WordNet:
         self.is_adjective = lru_cache(maxsize=65536)(self._is_adjective)
         self.mostly_verb = lru_cache(maxsize=65536)(self._mostly_verb)
         self.is_verb = lru_cache(maxsize=65536)(self._is_verb)
+        self.verb_field = lru_cache(maxsize=65536)(self._verb_field)
 
     def _lemma(self, word: str) -> str:
         """The noun lemma ("people" stays, "geese" → "goose", "fields" → "field", not the
@@ -279,6 +280,13 @@ class WordNet:
     def _is_verb(self, word: str) -> bool:
         with self._lock:
             return bool(self._wn.synsets(word.replace(" ", "_"), "v"))
+
+    def _verb_field(self, word: str) -> str | None:
+        """The lexicographer file of the word's most frequent verb sense, without ``verb.``
+        ("walking" motion, "raining" weather, "amazing" cognition); None if it is no verb."""
+        with self._lock:
+            senses = self._wn.synsets(word, "v")
+            return str(senses[0].lexname()).removeprefix("verb.") if senses else None
 
     def _noun_class(self, word: str) -> NounClass | None:
         """The most careful class of the word's first senses; ``None`` if WordNet lacks the noun."""
