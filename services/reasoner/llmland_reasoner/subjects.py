@@ -22,9 +22,10 @@ road raises any thing, since only vehicles do it. A mention the verb raises keep
 (negated, depicted).
 
 A pronoun that may stand for anyone or anything (:data:`AGENT_PRONOUNS`: "they", "it",
-"something", "these", "those") as the subject of a verb of action ("they are setting up tents",
-"it is moving toward the camera", "something is crossing the road", "those are parked near the
-gate") names an agent no noun does: a person, an animal or a vehicle, nobody can tell which.
+"something", "these", "those", "them", "we", and "they're", "we're" written as one word) as the
+subject of a verb of action ("they are setting up tents", "it is moving toward the camera",
+"something is crossing the road", "those are parked near the gate") names an agent no noun
+does: a person, an animal or a vehicle, nobody can tell which.
 Its mention is an ``unknown`` one, which the spec answers with the careful fallback (moving,
 the largest buffer), as it does an unknown noun; the animal verbs still imply an animal. Not
 the impersonal "it" ("it is raining", "it is getting dark", "it is surprising that...", "it is
@@ -69,7 +70,7 @@ DIRECTIONS = frozenset(
 PRONOUNS = frozenset("it they something".split())
 #: Pronouns that may stand for a person, an animal or a vehicle: the subject of a verb of action
 #: after one is an agent no noun names (module docstring).
-AGENT_PRONOUNS = frozenset("it they something these those".split())
+AGENT_PRONOUNS = frozenset("it they something these those them we they're we're".split())
 #: Words that open a verb's object ("crossing the road"), unlike a noun after an adjective in
 #: -ing ("parking lot", "running water").
 OBJECT_OPENERS = frozenset("a an the this that these those his her their its".split())

@@ -85,6 +85,9 @@ def test_a_negated_subject_stays_negated(finder: MentionFinder) -> None:
     ("these are docked at the pier", "docked"),
     ("they are sitting on the grass", "sitting"),
     ("something crossing the road at dusk", "crossing"),
+    ("they're walking on the sidewalk", "walking"),  # the auxiliary inside the pronoun
+    ("we are walking on the beach", "walking"),
+    ("a photo of them walking on the street", "walking"),
     # a caption that opens with a participle and its object or direction: the same unnamed agent
     ("jogging along the river at dawn", "jogging"),
     ("crossing the road near a bus stop", "crossing"),
