@@ -18,7 +18,12 @@ stop" as a WordNet compound) are not mentions, except KB names of people, animal
 when what it counts follows its "of" and is a person or an animal ("a family of geese" is
 geese): the counted mention stands for it. People named without a noun are mentions: pronoun
 subjects ("he", "someone") and crowd adjectives ("a crowded beach"); so is the traffic a road's
-adjective implies ("a busy highway", "the road is congested"). Some verbs decide what a thing
+adjective implies ("a busy highway", "the road is congested"). A thing the captioner could
+not make out is an unknown mention (careful): a form ("a dark figure in the distance", "a
+silhouette by the fence"; not a figurine, "a wooden figure") and a vague noun after a word of
+doubt ("an unidentified object", "a blurry shape"). A person noun WordNet reads mostly as an
+adjective is a noun where it heads its phrase before a verb ("an individual standing on the
+road"). Some verbs decide what a thing
 before them is ("a mobile crane driving along the highway" is a vehicle, "it is grazing" an
 animal): :mod:`.subjects`.
 """
@@ -31,8 +36,18 @@ from collections.abc import Sequence
 from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
-from .subjects import with_verb_subjects
-from .words import COPULAS, DETERMINERS, FUNCTION_WORDS, PARKED
+from .subjects import DIRECTIONS, OBJECT_OPENERS, with_verb_subjects
+from .words import (
+    AUXILIARIES,
+    COPULAS,
+    DETERMINERS,
+    FORM_NOUNS,
+    FUNCTION_WORDS,
+    PARKED,
+    SHOWING_VERBS,
+    UNCERTAIN,
+    VAGUE_NOUNS,
+)
 
 #: The longest KB name, in words.
 MAX_NAME_WORDS = 4
@@ -181,9 +196,48 @@ class MentionFinder:
             return False  # "walking", "parked": verbs and participles, unless "a crossing"
         if self._verb_here(words, i):
             return False  # "the river passes", "a man surfs": verbs, unless "a pass"
+        cls = self.wordnet.noun_class(self.wordnet.lemma(word))
         if self.wordnet.is_adjective(word):
-            return False  # "lush plants", "a black and white dog", "a young man": adjectives, not nouns
-        return self.wordnet.noun_class(self.wordnet.lemma(word)) is not None
+            # "lush plants", "a black and white dog", "a young man": adjectives, not nouns; but
+            # "an individual standing", "a local walking": the head of its phrase names a person
+            return cls in _LIVING_OR_VEHICLE and self._heads_before_verb(words, i)
+        return cls is not None
+
+    def _heads_before_verb(self, words: Sequence[str], i: int) -> bool:
+        """Whether the word after a determiner ends its noun phrase before a verb: an auxiliary or a
+        present participle follows ("an individual is standing", "a local walking down the road"),
+        the participle naming no thing ("the white building") unless a direction or an object
+        follows it ("an individual crossing the road")."""
+        if i == 0 or words[i - 1] not in DETERMINERS or i + 1 >= len(words):
+            return False
+        nxt, after = words[i + 1], words[i + 2] if i + 2 < len(words) else ""
+        if nxt in AUXILIARIES:
+            return True
+        if not (nxt.endswith("ing") and nxt.isalpha() and self.wordnet.is_verb(nxt)):
+            return False
+        return self.wordnet.noun_class(nxt) in (None, "abstract") or after in DIRECTIONS | OBJECT_OPENERS
+
+    def _made_form(self, words: Sequence[str], i: int) -> bool:
+        """A form noun after a depiction modifier ("a wooden figure") or after a noun that is no
+        person, animal or vehicle ("a straw figure", "an action figure"): a figurine, something made."""
+        prev = words[i - 1] if i > 0 else ""
+        if prev in DEPICTION_MODIFIERS:
+            return True
+        if not prev.isalpha() or prev in FUNCTION_WORDS or prev in DETERMINERS or self.wordnet.is_adjective(prev):
+            return False
+        cls = self.wordnet.noun_class(self.wordnet.lemma(prev))
+        return cls is not None and cls not in _LIVING_OR_VEHICLE
+
+    def _unmade_out(self, words: Sequence[str], i: int) -> bool:
+        """A thing the captioner could not make out: a form (:data:`~.words.FORM_NOUNS`: "a dark
+        figure in the distance"; not "the figure shows...", the picture itself, nor a figurine,
+        :meth:`_made_form`) or a vague noun
+        (:data:`~.words.VAGUE_NOUNS`) after an :data:`~.words.UNCERTAIN` adjective ("an unidentified
+        object", "a blurry shape"). Its mention is an unknown one: the careful spec."""
+        lemma = self.wordnet.lemma(words[i])
+        if lemma in FORM_NOUNS:
+            return not self._made_form(words, i) and (i + 1 >= len(words) or words[i + 1] not in SHOWING_VERBS)
+        return lemma in VAGUE_NOUNS and bool(UNCERTAIN.intersection(words[max(0, i - 2) : i]))
 
     def _short_noun(self, words: Sequence[str], i: int) -> bool:
         """A two-letter word after a determiner that names a vehicle (:data:`SHORT_NOUN_CLASSES`),
@@ -221,6 +275,8 @@ class MentionFinder:
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
             return None
         compound = self._compound(words, i)
+        if compound is None and self._unmade_out(words, i):  # before the KB's "object": what it is is unknown
+            return 1, "unknown", "unknown", None
         if kb is not None and kb[0] == 1 and kb[1].category not in _LIVING_OR_VEHICLE and self._verb_here(words, i):
             kb = None  # "a player swings": a verb, though "swing" is a KB name
         if kb is not None and (compound is None or compound[0] <= kb[0] or kb[1].category not in _LIVING_OR_VEHICLE):

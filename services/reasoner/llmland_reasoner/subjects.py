@@ -21,6 +21,15 @@ chirping", "a wave speeding toward the shore" stay what they are); "driving" dow
 road raises any thing, since only vehicles do it. A mention the verb raises keeps its status
 (negated, depicted).
 
+Verbs of going somewhere under one's own power (:data:`AGENT_VERBS`: walking, moving,
+approaching...) have an agent for a subject. A thing doing one ("an object moving fast", "a red
+umbrella moving along the sidewalk", "a moving object"), or a noun no rule reads ("a blurry shape
+moving across the field"), is someone or something the captioner could not name: an ``unknown``
+mention, the careful spec. Not a place or a plant (:data:`STILL_CLASSES`: "leaves moving in the
+wind", "a path creeping up the hill"), nor a thing the wind moves ("a flag moving in the wind"),
+and not the verbs a still thing does in captions ("a bridge crossing the river", "a fence
+running along the road").
+
 A pronoun that may stand for anyone or anything (:data:`AGENT_PRONOUNS`: "they", "it",
 "something", "these", "those", "them", "we", and "they're", "we're" written as one word) as the
 subject of a verb of action ("they are setting up tents", "it is moving toward the camera",
@@ -60,7 +69,19 @@ DRIVING_VERBS = frozenset({"driving"})
 #: Verbs a vehicle does though other things may too ("speeding"): a thing is raised only to a
 #: vehicle sense WordNet gives it.
 MOVING_VERBS = frozenset({"speeding"})
-VERBS = ANIMAL_VERBS | DRIVING_VERBS | MOVING_VERBS
+#: Verbs of going somewhere under one's own power, as captions write them: their subject is an
+#: agent. A thing doing one ("an object moving fast", "a red umbrella moving along the sidewalk",
+#: "a box walking") is someone or something no noun names. Not the verbs a still thing does in
+#: captions ("a bridge crossing the river", "a fence running along the road", "a path heading into
+#: the woods", "waves rolling in").
+AGENT_VERBS = frozenset(
+    "walking moving approaching travelling traveling advancing strolling marching hurrying rushing racing "
+    "fleeing jogging crawling creeping sneaking".split()
+)
+VERBS = ANIMAL_VERBS | DRIVING_VERBS | MOVING_VERBS | AGENT_VERBS
+#: What moves a thing that is no agent ("a flag moving in the wind"); looked for this many words on.
+WIND_WORDS = frozenset("wind winds breeze gust gusts".split())
+WIND_REACH = 4
 #: Words that make "driving" intransitive: a direction or a place follows.
 DIRECTIONS = frozenset(
     "down along up across through past into onto toward towards around over on in away off by out under "
@@ -89,14 +110,31 @@ NOTHING = frozenset("no nothing none without".split())
 #: Classes a verb never changes: each is at least as careful as any reading a verb could give
 #: (people, animals: living; vehicles: 5 m; unknown: the careful spec).
 SETTLED = frozenset({"person", "animal", "vehicle", "unknown"})
+#: Classes an agent verb does not make an agent of: places and plants "move" in the wind and
+#: water "rushes", and a path "creeps" up a hill.
+STILL_CLASSES = frozenset({"terrain", "vegetation"})
+#: Words that make a thing part of what a mention before it wears, carries or pushes ("a person in
+#: a red shirt walking", "a dog with a collar moving"): the agent is that mention, not the thing.
+ATTRIBUTE_WORDS = frozenset("in with wearing carrying holding pushing pulling".split())
+#: How far before the thing (words) the attribute word, and before that word its owner, may stand.
+ATTRIBUTE_REACH = 3
+#: Words between a subject and its verb that a relative clause puts there ("a box that is moving").
+RELATIVE_PRONOUNS = frozenset("that which who".split())
+#: Pronouns an adjective may follow before the verb ("something large moving").
+INDEFINITE_THINGS = frozenset({"something", "anything"})
 
 Implied = Callable[[], tuple[str, Source, str | None]]
 
 
-def _subject(words: Sequence[str], j: int, at_end: dict[int, Found]) -> tuple[Found | None, int]:
-    """The mention right before the verb at ``j`` (an auxiliary may stand between), and where the
-    subject's last word is."""
+def _subject(words: Sequence[str], j: int, at_end: dict[int, Found], wordnet: WordNet) -> tuple[Found | None, int]:
+    """The mention right before the verb at ``j`` (an auxiliary may stand between, and a relative
+    pronoun before it: "a box that is moving"), and where the subject's last word is. An
+    adjective after "something" belongs to it ("something large moving")."""
     k = j - 1 if j >= 1 and words[j - 1] not in AUXILIARIES else j - 2
+    if k >= 1 and words[k] in RELATIVE_PRONOUNS and words[k + 1] in AUXILIARIES:
+        k -= 1
+    if k >= 1 and at_end.get(k + 1) is None and words[k - 1] in INDEFINITE_THINGS and wordnet.is_adjective(words[k]):
+        k -= 1
     return at_end.get(k + 1), k
 
 
@@ -107,8 +145,8 @@ def _has_sense(wordnet: WordNet, text: str, word_class: str) -> bool:
 
 
 def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: WordNet, animal: Implied) -> list[Found]:
-    """``mentions`` with the subjects of :data:`ANIMAL_VERBS`, :data:`DRIVING_VERBS` and
-    :data:`MOVING_VERBS` read as the verb says (see the module docstring). ``animal()``: the
+    """``mentions`` with the subjects of :data:`ANIMAL_VERBS`, :data:`DRIVING_VERBS`,
+    :data:`MOVING_VERBS` and :data:`AGENT_VERBS` read as the verb says (see the module docstring). ``animal()``: the
     (class, source, kb id) of an animal no noun names. After a determiner the verb qualifies a
     noun ("a grazing field", "a speeding car")."""
     at_end = {m.end: m for m in mentions}
@@ -118,10 +156,13 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
         if verb not in VERBS and not _acting(wordnet, verb):
             continue
         nxt = words[j + 1] if j + 1 < len(words) else ""
-        subject, k = _subject(words, j, at_end)
+        subject, k = _subject(words, j, at_end, wordnet)
         before = words[k] if k >= 0 else ""
-        if before in DETERMINERS and k == j - 1:
-            continue  # "a grazing field", "a speeding car": the verb qualifies a noun
+        if before in DETERMINERS and k == j - 1:  # "a grazing field", "a speeding car": the verb qualifies a noun
+            qualified = out.get(j + 1)
+            if verb in AGENT_VERBS and qualified is not None and qualified.word_class not in SETTLED | STILL_CLASSES:
+                out[j + 1] = replace(qualified, word_class="unknown", source="unknown", kb_id=None)  # "a moving object"
+            continue
         nothing_there = any(w in NOTHING for w in words[max(0, k - 1) : j])
         if verb in ANIMAL_VERBS:
             if subject is None:
@@ -143,11 +184,29 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
             if _unread_noun(wordnet, before, verb in DRIVING_VERBS) and not any(m.start <= k < m.end for m in mentions):
                 added.append(Found(k, k + 1, before, "vehicle", "wordnet"))  # "a yellow tuk-tuk speeding"
                 continue
+        blown = bool(WIND_WORDS.intersection(words[j + 1 : j + 1 + WIND_REACH]))  # "a tent moving in the wind"
+        if verb in AGENT_VERBS and not nothing_there and not blown:
+            if subject is not None:
+                if subject.word_class not in SETTLED | STILL_CLASSES and not _worn(words, subject, mentions):
+                    out[subject.start] = replace(subject, word_class="unknown", source="unknown", kb_id=None)
+                continue
+            if _unread_noun(wordnet, before, True) and not any(m.start <= k < m.end for m in mentions):
+                added.append(Found(k, k + 1, before, "unknown", "unknown"))  # "a blurry shape moving"
+                continue
         pronoun = before in AGENT_PRONOUNS and not (before == "it" and (verb in IMPERSONAL_VERBS or nxt in EXTRAPOSED))
         subjectless = j == 0 and verb not in PARKED and nxt in DIRECTIONS | OBJECT_OPENERS  # "crossing the road"
         if subject is None and (pronoun or subjectless) and not nothing_there and not _compound(wordnet, verb, nxt):
             added.append(Found(j, j + 1, verb, "unknown", "unknown"))  # "they are setting up tents"
     return sorted([*out.values(), *added], key=lambda m: (m.start, m.end))
+
+
+def _worn(words: Sequence[str], thing: Found, mentions: Sequence[Found]) -> bool:
+    """Whether ``thing`` is what a person, animal or vehicle named just before it wears, carries or
+    pushes (:data:`ATTRIBUTE_WORDS`): "a person in a red shirt walking" walks, not the shirt."""
+    for p in range(thing.start - 1, max(-1, thing.start - 1 - ATTRIBUTE_REACH), -1):
+        if words[p] in ATTRIBUTE_WORDS:
+            return any(p - ATTRIBUTE_REACH <= m.end <= p and m.word_class in SETTLED for m in mentions)
+    return False
 
 
 def _acting(wordnet: WordNet, word: str) -> bool:

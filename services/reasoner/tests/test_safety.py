@@ -61,6 +61,29 @@ def test_a_pronoun_doing_something_gets_the_careful_spec(extractor: SpecExtracto
     assert spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M and spec.is_human is not False, spec
 
 
+@pytest.mark.parametrize("caption", [
+    "a dark figure in the distance",  # was the landing pad, 0 m
+    "two figures walking on the road",  # was the road, 0 m
+    "a silhouette near the fence",  # was the fence, 1 m
+    "an unidentified object lying on the grass",  # was a static object, 1 m
+    "an object moving fast across the field",
+    "a red umbrella moving along the sidewalk",  # was a tent, 1 m
+    "something large moving near the trees",  # was a tree, 1 m
+    "a blurry shape moving across the field",  # was the ground, 0 m
+])
+def test_what_the_captioner_could_not_make_out_gets_the_careful_spec(extractor: SpecExtractor, caption: str) -> None:
+    """A form, a vague thing in doubt, or a thing going somewhere under its own power may be anyone
+    or anything: the careful spec, never the ground or a still thing named beside it."""
+    spec = extractor.extract(caption)
+    assert spec.is_dynamic and spec.buffer_m == CONSERVATIVE_BUFFER_M, spec
+
+
+@pytest.mark.parametrize("caption", ["an individual standing on the road", "an individual is walking on the path"])
+def test_a_person_noun_read_mostly_as_an_adjective_is_a_person(extractor: SpecExtractor, caption: str) -> None:
+    spec = extractor.extract(caption)  # was the road or the path, 0 m
+    assert spec.is_human and spec.is_dynamic and spec.buffer_m >= 3.0, spec
+
+
 def test_negation_and_depiction(extractor: SpecExtractor) -> None:
     assert not extractor.extract("an empty street with no cars or people").is_dynamic
     assert not extractor.extract("a bronze statue of a man on a horse").is_dynamic

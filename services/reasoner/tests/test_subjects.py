@@ -119,3 +119,38 @@ def test_no_unknown_agent_where_no_pronoun_acts(finder: MentionFinder, caption: 
 def test_an_animal_verb_after_a_pronoun_still_implies_an_animal(finder: MentionFinder) -> None:
     found = classes(finder.find("they are grazing near the fence"))
     assert "animal" in found.values() and "unknown" not in found.values()
+
+
+@pytest.mark.parametrize(("caption", "word"), [
+    # a thing going somewhere under its own power is an agent no noun names: the careful unknown
+    ("an object moving fast across the field", "object"),
+    ("a red umbrella moving along the sidewalk", "umbrella"),
+    ("a box that is moving along the road", "box"),  # through a relative clause
+    ("a mannequin walking down the street", "mannequin"),
+    ("a moving object near the landing pad", "object"),  # the participle before the thing
+    ("a blurry shape moving across the field", "shape"),  # a noun no rule reads
+    ("something large moving near the trees", "moving"),  # an adjective after "something"
+])
+def test_a_thing_going_somewhere_is_an_unknown_agent(finder: MentionFinder, caption: str, word: str) -> None:
+    assert classes(finder.find(caption)).get(word) == "unknown"
+
+
+@pytest.mark.parametrize("caption", [
+    "a bridge crossing the river",  # what still things do in captions
+    "a fence running along the road",
+    "a path heading into the woods",
+    "leaves moving in the wind",  # places and plants
+    "a flag moving in the wind",  # the wind moves it
+    "a tent moving in the strong wind",
+    "a walking path through the park",  # the participle qualifies a place
+    "no object moving on the road",  # nothing is there
+    "a person in a red shirt walking on the grass",  # the person walks, not the shirt
+    "a dog with a red collar walking on the path",
+])
+def test_no_unknown_agent_where_a_still_thing_is_described(finder: MentionFinder, caption: str) -> None:
+    assert "unknown" not in classes(finder.find(caption)).values()
+
+
+def test_a_thing_that_stops_being_there_stays_negated(finder: MentionFinder) -> None:
+    found = {f.text: (f.word_class, f.status) for f in finder.find("no object moving on the road")}
+    assert found["object"][1] == "negated"
