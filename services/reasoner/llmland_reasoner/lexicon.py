@@ -60,6 +60,7 @@ ANCHORS: tuple[tuple[str, NounClass], ...] = (
     ("representation.n.02", "lookalike"),  # picture, photograph, drawing, model, figurine
     ("art.n.01", "lookalike"),  # statue, sculpture, painting
     ("person.n.01", "person"),
+    ("operator.n.02", "person"),  # drivers, motorists, jockeys: WordNet files them under causal agents
     ("gathering.n.01", "person"),  # crowd, audience, congregation
     ("family.n.01", "person"),
     ("animal.n.01", "animal"),

@@ -208,13 +208,32 @@ def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
                and (m.word_class == "vehicle" or m.kb_id in RIDDEN_IDS) for m in mentions)
 
 
+#: Words that put a person named right after a two-wheeler on it ("a motorbike with two riders").
+CARRYING_CUES = frozenset({"with", "carrying"})
+
+
+def _carried(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
+    """Whether the person is named right after a two-wheeler (neither negated nor parked right
+    there) that :data:`CARRYING_CUES` say carries them, at most :data:`RIDE_REACH` words on ("a
+    motorbike with two riders", "a scooter carrying a woman"), no other thing named between."""
+    prev = max((m for m in mentions if m.end <= person.start), key=lambda m: m.end, default=None)
+    if prev is None or prev.kb_id not in TWO_WHEELER_IDS or prev.status == "negated":
+        return False
+    gap = words[prev.end : person.start]
+    beside = words[max(0, prev.start - 1) : prev.end + 1]
+    return bool(gap) and gap[0] in CARRYING_CUES and len(gap) <= RIDE_REACH and not PARKED_TWO_WHEELER & set(beside)
+
+
 def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
     """Whether the caption puts the person on a two-wheeler: a :data:`RIDING_CUES` word at most
     :data:`RIDER_TO_CUE_REACH` words after the person whose next thing named, at most
     :data:`RIDE_REACH` words after it, is a two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated
     nor parked right there ("a man on the sidewalk riding a bicycle"; "a child sitting on a parked
     motorcycle" rides nothing, :data:`PARKED_TWO_WHEELER`), with no other person named from the
-    person to it ("a man next to a boy on a bike": the boy rides it)."""
+    person to it ("a man next to a boy on a bike": the boy rides it); or a two-wheeler before the
+    person carries them (:func:`_carried`)."""
+    if _carried(words, person, mentions):
+        return True
     for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):
         if words[j] not in RIDING_CUES:
             continue

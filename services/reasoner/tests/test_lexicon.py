@@ -16,6 +16,8 @@ BEYOND_KB: dict[str, str] = {
     "kangaroo": "animal", "squirrel": "animal", "llama": "animal", "ostrich": "animal", "beetle": "animal",
     "skier": "person", "surfer": "person", "lifeguard": "person", "nurse": "person", "tourist": "person",
     "shepherd": "person", "bride": "person", "golfer": "person", "pilot": "person", "referee": "person",
+    # operators of machines: WordNet files them under causal agents, not persons (were terrain)
+    "driver": "person", "motorist": "person", "trucker": "person", "chauffeur": "person", "jockey": "person",
     # vehicles
     "pram": "vehicle", "jeep": "vehicle", "limousine": "vehicle", "hovercraft": "vehicle", "jet": "vehicle",
     "sled": "vehicle", "wheelbarrow": "vehicle", "rickshaw": "vehicle", "caravan": "vehicle", "snowmobile": "vehicle",

@@ -141,10 +141,24 @@ def test_the_single_answer_ablation(resources: Resources) -> None:
     ("a police officer on a motorcycle stationary at a red light", "cyclist"),
     ("a toddler on a bicycle near a parked van", "cyclist"),
     ("a farmer on a motorbike near an abandoned tractor", "cyclist"),
+    # named after the two-wheeler that carries them (was a 3 m person: the rule read only "on", "riding")
+    ("a motorbike with two riders on a country road", "cyclist"),
+    ("a motorcycle carrying a man and a woman", "cyclist"),
 ])
 def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, caption: str, label: str) -> None:
     spec = extractor.extract(caption)
     assert spec.label == label and spec.buffer_m >= 5.0 and spec.is_dynamic, spec
+
+
+@pytest.mark.parametrize(("caption", "human", "min_buffer"), [
+    ("a delivery driver unloading boxes", True, 3.0),  # was the boxes, a static 1 m: "driver" was no person
+    ("a truck driver standing by the road", True, 3.0),  # was the road, 0 m
+    ("a traffic jam on the highway", False, 5.0),  # was WordNet's crush of people, 3 m: the KB's traffic
+])
+def test_drivers_are_people_and_a_jam_is_traffic(extractor: SpecExtractor, caption: str, human: bool,
+                                                 min_buffer: float) -> None:
+    spec = extractor.extract(caption)
+    assert spec.is_human == human and spec.is_dynamic and spec.buffer_m >= min_buffer, spec
 
 
 @pytest.mark.parametrize("caption", [
@@ -152,6 +166,7 @@ def test_a_person_on_a_two_wheeler_is_its_rider(extractor: SpecExtractor, captio
     "a young adult riding a boat on a lake",  # a boat's passenger is no cyclist
     "a child sitting on a parked motorcycle",  # a parked two-wheeler is ridden by nobody
     "a woman sitting on a moped parked by the road",
+    "a parked motorbike with a man standing next to it",
 ])
 def test_riding_something_else_is_not_cycling(extractor: SpecExtractor, caption: str) -> None:
     assert extractor.extract(caption).label != "cyclist"
