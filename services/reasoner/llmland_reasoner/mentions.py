@@ -43,6 +43,7 @@ from .words import (
     DETERMINERS,
     FORM_NOUNS,
     FUNCTION_WORDS,
+    MADE_PARTICIPLES,
     PARKED,
     SHOWING_VERBS,
     UNCERTAIN,
@@ -104,6 +105,9 @@ _COUNTED = frozenset({"person", "animal"})
 #: airplane", "five PM": abbreviations that qualify a thing), :meth:`MentionFinder._short_noun`.
 SHORT_NOUN_CLASSES = frozenset({"vehicle"})
 ARTICLES = frozenset({"a", "an", "the"})
+#: Prepositions after which a person noun read mostly as an adjective heads its phrase ("an
+#: individual on a bike", "an individual in a red jacket").
+PERSON_PREPOSITIONS = frozenset("on in with near at by beside behind wearing holding carrying".split())
 #: Care order of the classes a newly found compound may take over a span with (``_compound``).
 _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
@@ -199,29 +203,40 @@ class MentionFinder:
         cls = self.wordnet.noun_class(self.wordnet.lemma(word))
         if self.wordnet.is_adjective(word):
             # "lush plants", "a black and white dog", "a young man": adjectives, not nouns; but
-            # "an individual standing", "a local walking": the head of its phrase names a person
-            return cls in _LIVING_OR_VEHICLE and self._heads_before_verb(words, i)
+            # "an individual standing", "a stray wandering along": the head of its phrase names a
+            # person or an animal (not a vehicle: "a local" is WordNet's local train)
+            return cls in ("person", "animal") and self._heads_before_verb(words, i)
         return cls is not None
 
     def _heads_before_verb(self, words: Sequence[str], i: int) -> bool:
-        """Whether the word after a determiner ends its noun phrase before a verb: an auxiliary or a
-        present participle follows ("an individual is standing", "a local walking down the road"),
-        the participle naming no thing ("the white building") unless a direction or an object
-        follows it ("an individual crossing the road")."""
+        """Whether the word after a determiner ends its noun phrase: an auxiliary, a preposition
+        (:data:`PERSON_PREPOSITIONS`) or a present participle with a direction or an object follows
+        ("an individual is standing", "an individual on a bike", "an individual crossing the road";
+        not "an individual parking space", "the white building")."""
         if i == 0 or words[i - 1] not in DETERMINERS or i + 1 >= len(words):
             return False
         nxt, after = words[i + 1], words[i + 2] if i + 2 < len(words) else ""
-        if nxt in AUXILIARIES:
+        if nxt in AUXILIARIES or nxt in PERSON_PREPOSITIONS:
             return True
-        if not (nxt.endswith("ing") and nxt.isalpha() and self.wordnet.is_verb(nxt)):
-            return False
-        return self.wordnet.noun_class(nxt) in (None, "abstract") or after in DIRECTIONS | OBJECT_OPENERS
+        participle = nxt.endswith("ing") and nxt.isalpha() and self.wordnet.is_verb(nxt)
+        return participle and (after in DIRECTIONS | OBJECT_OPENERS or after in ("", ",", ";"))
+
+    def _phrase_start(self, words: Sequence[str], i: int) -> int:
+        """Where the noun phrase of the noun at ``i`` starts: back over adjectives, commas and "and"
+        between them, and its determiner."""
+        j = i
+        while j > 0 and (words[j - 1] in (",", "and") or (words[j - 1].isalpha() and words[j - 1] not in FUNCTION_WORDS
+                                                             and self.wordnet.is_adjective(words[j - 1]))):
+            j -= 1
+        return j - 1 if j > 0 and words[j - 1] in DETERMINERS else j
 
     def _made_form(self, words: Sequence[str], i: int) -> bool:
-        """A form noun after a depiction modifier ("a wooden figure") or after a noun that is no
-        person, animal or vehicle ("a straw figure", "an action figure"): a figurine, something made."""
+        """A form noun that is a picture or a thing made: after a depiction modifier ("a wooden
+        figure") or a noun that is no person, animal or vehicle ("a straw figure", "an action
+        figure"), before a participle of making ("a silhouette painted on the wall")."""
         prev = words[i - 1] if i > 0 else ""
-        if prev in DEPICTION_MODIFIERS:
+        nxt = words[i + 1] if i + 1 < len(words) else ""
+        if prev in DEPICTION_MODIFIERS or nxt in MADE_PARTICIPLES:
             return True
         if not prev.isalpha() or prev in FUNCTION_WORDS or prev in DETERMINERS or self.wordnet.is_adjective(prev):
             return False
@@ -230,14 +245,24 @@ class MentionFinder:
 
     def _unmade_out(self, words: Sequence[str], i: int) -> bool:
         """A thing the captioner could not make out: a form (:data:`~.words.FORM_NOUNS`: "a dark
-        figure in the distance"; not "the figure shows...", the picture itself, nor a figurine,
-        :meth:`_made_form`) or a vague noun
-        (:data:`~.words.VAGUE_NOUNS`) after an :data:`~.words.UNCERTAIN` adjective ("an unidentified
-        object", "a blurry shape"). Its mention is an unknown one: the careful spec."""
+        figure in the distance", "a blurry shape") or a vague noun (:data:`~.words.VAGUE_NOUNS`)
+        qualified by a word of doubt (:data:`~.words.UNCERTAIN`: "an unidentified object", "a
+        strange, dark object"). Its mention is an unknown one: the careful spec. Not a picture or
+        a thing made (:meth:`_made_form`; "the figure shows...", "figure 2 shows"), a manner ("a
+        building in a strange shape"), nor a form or thing of something: "a silhouette of a
+        dog" is the dog, "a figure of speech" nothing, so the words after "of" decide."""
         lemma = self.wordnet.lemma(words[i])
+        if lemma not in FORM_NOUNS and lemma not in VAGUE_NOUNS:
+            return False
+        rest = words[i + 1 : i + 3]
+        if (rest and (rest[0] == "of" or rest[0].isdigit())) or SHOWING_VERBS.intersection(rest):
+            return False
+        start = self._phrase_start(words, i)
+        if start > 0 and words[start - 1] == "in":
+            return False  # "in a strange shape": how a thing is, not a thing
         if lemma in FORM_NOUNS:
-            return not self._made_form(words, i) and (i + 1 >= len(words) or words[i + 1] not in SHOWING_VERBS)
-        return lemma in VAGUE_NOUNS and bool(UNCERTAIN.intersection(words[max(0, i - 2) : i]))
+            return not self._made_form(words, i)
+        return bool(UNCERTAIN.intersection(words[start:i]))
 
     def _short_noun(self, words: Sequence[str], i: int) -> bool:
         """A two-letter word after a determiner that names a vehicle (:data:`SHORT_NOUN_CLASSES`),

@@ -25,10 +25,13 @@ Verbs of going somewhere under one's own power (:data:`AGENT_VERBS`: walking, mo
 approaching...) have an agent for a subject. A thing doing one ("an object moving fast", "a red
 umbrella moving along the sidewalk", "a moving object"), or a noun no rule reads ("a blurry shape
 moving across the field"), is someone or something the captioner could not name: an ``unknown``
-mention, the careful spec. Not a place or a plant (:data:`STILL_CLASSES`: "leaves moving in the
-wind", "a path creeping up the hill"), nor a thing the wind moves ("a flag moving in the wind"),
-and not the verbs a still thing does in captions ("a bridge crossing the river", "a fence
-running along the road").
+mention, the careful spec; after a vague noun ("an object crossing the road", "an object rolling
+across the road") any verb of motion counts. Not a place, a plant or an idea (:data:`STILL_CLASSES`:
+"leaves moving in the wind", "time moving slowly"), a thing the wind moves ("a flag moving in the
+wind") or that swings ("back and forth"), one said to be absent ("none of the objects are moving"),
+what a person before it wears ("a person in a red shirt walking"), a participle naming a use ("a
+walking cane", "a local walking trail"), nor the verbs a still thing does in captions ("a bridge
+crossing the river", "a fence running along the road").
 
 A pronoun that may stand for anyone or anything (:data:`AGENT_PRONOUNS`: "they", "it",
 "something", "these", "those", "them", "we", and "they're", "we're" written as one word) as the
@@ -56,7 +59,7 @@ from dataclasses import replace
 
 from .found import Found, Source
 from .lexicon import WordNet
-from .words import AUXILIARIES, DETERMINERS, FUNCTION_WORDS, PARKED
+from .words import AUXILIARIES, DETERMINERS, FUNCTION_WORDS, PARKED, VAGUE_NOUNS
 
 #: Verbs, as captions write them, that only animals do: their subject is an animal. Not the ones
 #: people do too ("sniffing a flower", "roaming", "howling", "trotting").
@@ -79,9 +82,20 @@ AGENT_VERBS = frozenset(
     "fleeing jogging crawling creeping sneaking".split()
 )
 VERBS = ANIMAL_VERBS | DRIVING_VERBS | MOVING_VERBS | AGENT_VERBS
-#: What moves a thing that is no agent ("a flag moving in the wind"); looked for this many words on.
-WIND_WORDS = frozenset("wind winds breeze gust gusts".split())
-WIND_REACH = 4
+#: Agent verbs that qualify the noun after them as a thing that moves ("a moving object"); not
+#: the ones that name a use ("a walking cane", "a racing bike", "a travelling circus").
+PRENOMINAL_AGENT_VERBS = frozenset({"moving", "approaching", "advancing"})
+#: What moves a thing that is no agent ("a flag moving in the wind", "a bag moving in the air",
+#: "a buoy moving in the waves"); looked for this many words on.
+WIND_WORDS = frozenset("wind winds breeze gust gusts air waves current currents".split())
+WIND_REACH = 6
+#: Words after a verb of motion that make it a swing, not a way somewhere ("back and forth").
+OSCILLATION_STARTS = frozenset({("back", "and"), ("up", "and"), ("to", "and"), ("round", "and")})
+#: How far before a thing (words) a negator may stand ("none of the objects are moving", "not a
+#: single thing moving").
+NEGATION_BEFORE = 3
+#: Words before a thing that say it is not there, for the agent verbs.
+NOT_THERE = frozenset({"no", "nothing", "none", "without", "not"})
 #: Words that make "driving" intransitive: a direction or a place follows.
 DIRECTIONS = frozenset(
     "down along up across through past into onto toward towards around over on in away off by out under "
@@ -160,7 +174,8 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
         before = words[k] if k >= 0 else ""
         if before in DETERMINERS and k == j - 1:  # "a grazing field", "a speeding car": the verb qualifies a noun
             qualified = out.get(j + 1)
-            if verb in AGENT_VERBS and qualified is not None and qualified.word_class not in SETTLED | STILL_CLASSES:
+            if (verb in PRENOMINAL_AGENT_VERBS and qualified is not None and qualified.end == j + 2
+                    and qualified.word_class not in SETTLED | STILL_CLASSES and not _compound(wordnet, verb, nxt)):
                 out[j + 1] = replace(qualified, word_class="unknown", source="unknown", kb_id=None)  # "a moving object"
             continue
         nothing_there = any(w in NOTHING for w in words[max(0, k - 1) : j])
@@ -184,20 +199,51 @@ def with_verb_subjects(words: Sequence[str], mentions: list[Found], wordnet: Wor
             if _unread_noun(wordnet, before, verb in DRIVING_VERBS) and not any(m.start <= k < m.end for m in mentions):
                 added.append(Found(k, k + 1, before, "vehicle", "wordnet"))  # "a yellow tuk-tuk speeding"
                 continue
-        blown = bool(WIND_WORDS.intersection(words[j + 1 : j + 1 + WIND_REACH]))  # "a tent moving in the wind"
-        if verb in AGENT_VERBS and not nothing_there and not blown:
+        if _goes_somewhere(words, j, k, subject, wordnet):
             if subject is not None:
-                if subject.word_class not in SETTLED | STILL_CLASSES and not _worn(words, subject, mentions):
+                if not _worn(words, subject, mentions):  # "an object moving fast", not "a man in a red shirt walking"
                     out[subject.start] = replace(subject, word_class="unknown", source="unknown", kb_id=None)
                 continue
-            if _unread_noun(wordnet, before, True) and not any(m.start <= k < m.end for m in mentions):
-                added.append(Found(k, k + 1, before, "unknown", "unknown"))  # "a blurry shape moving"
+            if _concrete_unread(wordnet, before) and not any(m.start <= k < m.end for m in mentions):
+                added.append(Found(k, k + 1, before, "unknown", "unknown"))  # "a robot vacuum moving", unread
                 continue
         pronoun = before in AGENT_PRONOUNS and not (before == "it" and (verb in IMPERSONAL_VERBS or nxt in EXTRAPOSED))
         subjectless = j == 0 and verb not in PARKED and nxt in DIRECTIONS | OBJECT_OPENERS  # "crossing the road"
         if subject is None and (pronoun or subjectless) and not nothing_there and not _compound(wordnet, verb, nxt):
             added.append(Found(j, j + 1, verb, "unknown", "unknown"))  # "they are setting up tents"
     return sorted([*out.values(), *added], key=lambda m: (m.start, m.end))
+
+
+def _goes_somewhere(words: Sequence[str], j: int, k: int, subject: Found | None, wordnet: WordNet) -> bool:
+    """Whether the verb at ``j`` says its subject (ending at ``k``) goes somewhere under its own
+    power: an :data:`AGENT_VERBS` verb, or any verb of motion after a vague noun ("an object
+    crossing the road", "an object rolling across the road"), whose subject is a thing that may be
+    an agent (not a person, animal, vehicle or unknown, nor a place or a plant, except a vague
+    noun), not blown by the wind, not swinging ("back and forth"), not said to be absent, and not
+    a participle before the noun it qualifies ("a local walking trail")."""
+    verb = words[j]
+    vague = subject is not None and wordnet.lemma(subject.text.split()[-1]) in VAGUE_NOUNS
+    if verb not in AGENT_VERBS and not (vague and wordnet.verb_field(verb) == "motion"):
+        return False
+    if subject is not None and subject.word_class in SETTLED | (frozenset() if vague else STILL_CLASSES):
+        return False
+    if WIND_WORDS.intersection(words[j + 1 : j + 1 + WIND_REACH]) or tuple(words[j + 1 : j + 3]) in OSCILLATION_STARTS:
+        return False
+    nxt = words[j + 1] if j + 1 < len(words) else ""
+    if (nxt.isalpha() and nxt not in FUNCTION_WORDS and not wordnet.is_adjective(nxt)
+            and wordnet.noun_class(wordnet.lemma(nxt)) not in (None, "abstract")):
+        return False  # "a local walking trail": the participle qualifies the thing after it
+    return not NOT_THERE.intersection(words[max(0, k - NEGATION_BEFORE) : j])
+
+
+def _concrete_unread(wordnet: WordNet, word: str) -> bool:
+    """A word in a noun's place that no rule read and that names a thing: WordNet lacks it, or its
+    class is no idea, place or plant ("time moving slowly", "prices moving up", "the tide
+    approaching" are no agents)."""
+    if not _unread_noun(wordnet, word, True):
+        return False
+    cls = wordnet.noun_class(wordnet.lemma(word))
+    return not wordnet.is_known(word) or cls not in (None, "abstract", *STILL_CLASSES)
 
 
 def _worn(words: Sequence[str], thing: Found, mentions: Sequence[Found]) -> bool:
@@ -222,7 +268,8 @@ def _acting(wordnet: WordNet, word: str) -> bool:
 def _compound(wordnet: WordNet, verb: str, nxt: str) -> bool:
     """The participle and the next word are one noun WordNet knows ("sleeping bags", "fishing
     boats", "parking spaces"): no verb at all."""
-    return bool(nxt) and nxt.isalpha() and wordnet.is_noun(f"{verb} {wordnet.lemma(nxt)}")
+    return (bool(nxt) and nxt.isalpha() and nxt not in FUNCTION_WORDS
+            and wordnet.is_noun(f"{verb} {wordnet.lemma(nxt)}"))  # not "moving in": a preposition follows
 
 
 def _unread_noun(wordnet: WordNet, word: str, any_noun: bool) -> bool:

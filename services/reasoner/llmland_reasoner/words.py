@@ -25,14 +25,16 @@ AUXILIARIES = frozenset("is are was were".split())
 #: Verbs between a noun and the adjective that describes it ("the road is congested", "looks busy").
 COPULAS = AUXILIARIES | frozenset({"looks", "seems"})
 #: Words for a form seen without its kind ("a dark figure in the distance", "a silhouette by the
-#: fence"): a captioner's word for someone or something it could not make out.
-FORM_NOUNS = frozenset({"figure", "silhouette"})
-#: Verbs after which a form noun is the picture itself ("the figure shows a field").
+#: fence", "a blurry shape moving"): a captioner's word for someone or something it could not make out.
+FORM_NOUNS = frozenset({"figure", "silhouette", "shape", "blob"})
+#: Verbs after which a form noun is the picture itself ("the figure shows a field", "figure 2 shows").
 SHOWING_VERBS = frozenset("shows show depicts illustrates presents displays".split())
-#: Nouns that name a thing without saying what it is ("an object", "a shape", "a blob").
-VAGUE_NOUNS = frozenset("object thing item shape form blob".split())
+#: Participles that make a form a picture ("a silhouette painted on the wall", "a figure drawn in chalk").
+MADE_PARTICIPLES = frozenset("painted drawn carved printed sprayed etched sculpted engraved stenciled".split())
+#: Nouns that name a thing without saying what it is ("an object", "an item").
+VAGUE_NOUNS = frozenset("object thing item form".split())
 #: Adjectives by which a captioner says it cannot tell what a thing is ("an unidentified object").
 UNCERTAIN = frozenset(
     "unknown unidentified unidentifiable unrecognizable unrecognisable indistinct strange mysterious blurry "
-    "blurred fuzzy".split()
+    "blurred fuzzy dark shadowy unclear".split()
 )

@@ -178,14 +178,22 @@ def test_compound_and_short_names(finder: MentionFinder, caption: str, expected:
     ("a silhouette near the fence", {"silhouette": "unknown", "fence": "structure"}),
     ("an unidentified object on the road", {"object": "unknown", "road": "terrain"}),  # before the KB's "object"
     ("a blurry shape on the road", {"shape": "unknown", "road": "terrain"}),
+    ("a strange, dark object near the tree", {"object": "unknown", "tree": "vegetation"}),
     # ... not a figurine, nor the picture itself, nor a thing named without doubt
     ("a wooden figure on the porch", {"figure": "terrain", "porch": "structure"}),
     ("an action figure on the table", {"figure": "terrain", "table": "object"}),
     ("the figure shows a field", {"figure": "terrain", "field": "terrain"}),
+    ("figure 2 shows a road", {"figure": "terrain", "road": "terrain"}),
+    ("a silhouette painted on the wall", {"silhouette": "terrain", "wall": "structure"}),
+    # ... nor a form or thing of something: what follows "of" decides (review)
+    ("the silhouette of a dog on the beach", {"silhouette": "terrain", "dog": "animal", "beach": "terrain"}),
+    ("a building in a strange shape", {"building": "structure", "shape": "terrain"}),  # a manner
     ("a figure skater on the ice", {"skater": "person", "ice": "terrain"}),
     # a person noun WordNet reads mostly as an adjective, heading its phrase before a verb
     ("an individual standing on the road", {"individual": "person", "road": "terrain"}),
     ("an individual crossing the road", {"individual": "person", "road": "terrain"}),
+    ("an individual in a red jacket", {"individual": "person", "jacket": "object"}),
+    ("an individual parking space", {"parking space": "terrain"}),  # the participle names a use (review)
     # ... not an adjective before a noun in -ing ("the white building")
     ("the white building near the road", {"building": "structure", "road": "terrain"}),
 ])
