@@ -105,6 +105,10 @@ _COUNTED = frozenset({"person", "animal"})
 #: airplane", "five PM": abbreviations that qualify a thing), :meth:`MentionFinder._short_noun`.
 SHORT_NOUN_CLASSES = frozenset({"vehicle"})
 ARTICLES = frozenset({"a", "an", "the"})
+#: Prepositions of a way somewhere: after a name that ends in a participle ("a pedestrian crossing
+#: towards the park") they make the participle a verb; "in", "on", "by" do not ("a zebra crossing
+#: on a quiet road" is the crosswalk).
+WAYS = frozenset("across along over through into onto toward towards past".split())
 #: Prepositions after which a person noun read mostly as an adjective heads its phrase ("an
 #: individual on a bike", "an individual in a red jacket").
 PERSON_PREPOSITIONS = frozenset("on in with near at by beside behind wearing holding carrying".split())
@@ -300,6 +304,10 @@ class MentionFinder:
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
             return None
         compound = self._compound(words, i)
+        if kb is not None and self._ends_in_a_verb(words, i, kb[0]):
+            kb = self._kb_match(words[: i + kb[0] - 1], i)  # "a pedestrian crossing the street": a person
+        if compound is not None and self._ends_in_a_verb(words, i, compound[0]):
+            compound = None
         if compound is None and self._unmade_out(words, i):  # before the KB's "object": what it is is unknown
             return 1, "unknown", "unknown", None
         if kb is not None and kb[0] == 1 and kb[1].category not in _LIVING_OR_VEHICLE and self._verb_here(words, i):
@@ -315,6 +323,15 @@ class MentionFinder:
                 cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
         return None
+
+    @staticmethod
+    def _ends_in_a_verb(words: Sequence[str], i: int, n: int) -> bool:
+        """Whether a name of ``n`` words at ``i`` ends in a participle that an object or a way
+        (:data:`WAYS`) follows, so a verb, not the name's last word: "a pedestrian crossing the
+        street", "a zebra crossing the road" (the crosswalks: "a zebra crossing on a quiet road")."""
+        if n < 2 or i + n >= len(words):
+            return False
+        return words[i + n - 1].endswith("ing") and words[i + n] in WAYS | OBJECT_OPENERS
 
     def _implied_person(self, word: str) -> tuple[int, str, Source, str | None]:
         """The unit of a person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective
@@ -412,6 +429,9 @@ class MentionFinder:
                     continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
             if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:
                 continue  # "arafed man": an unknown word before a noun qualifies it
+            if (unit.word_class == "person" and nxt is not None and nxt.start == unit.end == unit.start + 1
+                    and nxt.word_class == "animal"):
+                continue  # "an adult dog", "a kid goat", "a baby elephant": the word says the animal's age
             if unit.word_class == "abstract":
                 continue
             kept.append(unit)

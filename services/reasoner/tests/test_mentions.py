@@ -199,3 +199,18 @@ def test_compound_and_short_names(finder: MentionFinder, caption: str, expected:
 ])
 def test_what_the_captioner_could_not_make_out(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
+
+
+@pytest.mark.parametrize(("caption", "expected"), [
+    # a name that ends in a participle an object or a way follows: the participle is a verb (review)
+    ("a pedestrian crossing the street", {"pedestrian": "person", "street": "terrain"}),  # was the crosswalk, 0 m
+    ("a zebra crossing the road", {"zebra": "animal", "road": "terrain"}),
+    ("a pedestrian crossing towards the park", {"pedestrian": "person", "park": "terrain"}),
+    ("a zebra crossing on a quiet road", {"zebra crossing": "terrain", "road": "terrain"}),  # the crosswalk
+    # a person word right before an animal says its age: the animal is there, not a person
+    ("an adult dog on the grass", {"dog": "animal", "grass": "terrain"}),  # was a 3 m person
+    ("a kid goat in the barnyard", {"goat": "animal", "barnyard": "structure"}),
+])
+def test_names_that_end_in_a_verb_and_ages_of_animals(finder: MentionFinder, caption: str,
+                                                       expected: dict[str, str]) -> None:
+    assert present(finder.find(caption)) == expected
