@@ -105,6 +105,9 @@ _COUNTED = frozenset({"person", "animal"})
 #: airplane", "five PM": abbreviations that qualify a thing), :meth:`MentionFinder._short_noun`.
 SHORT_NOUN_CLASSES = frozenset({"vehicle"})
 ARTICLES = frozenset({"a", "an", "the"})
+#: Person words that say an animal's age or role right before it ("an adult dog", "a kid goat",
+#: "a mother duck").
+AGE_WORDS = frozenset("adult adults baby babies kid kids juvenile juveniles infant newborn mother".split())
 #: Prepositions of a way somewhere: after a name that ends in a participle ("a pedestrian crossing
 #: towards the park") they make the participle a verb; "in", "on", "by" do not ("a zebra crossing
 #: on a quiet road" is the crosswalk).
@@ -216,14 +219,19 @@ class MentionFinder:
         """Whether the word after a determiner ends its noun phrase: an auxiliary, a preposition
         (:data:`PERSON_PREPOSITIONS`) or a present participle with a direction or an object follows
         ("an individual is standing", "an individual on a bike", "an individual crossing the road";
-        not "an individual parking space", "the white building")."""
+        not "an individual parking space"). A participle that also names a thing needs an object
+        after it: "a red building", "the white building on the corner" are buildings, not people
+        (WordNet's "white" and "black" are also people)."""
         if i == 0 or words[i - 1] not in DETERMINERS or i + 1 >= len(words):
             return False
         nxt, after = words[i + 1], words[i + 2] if i + 2 < len(words) else ""
         if nxt in AUXILIARIES or nxt in PERSON_PREPOSITIONS:
             return True
-        participle = nxt.endswith("ing") and nxt.isalpha() and self.wordnet.is_verb(nxt)
-        return participle and (after in DIRECTIONS | OBJECT_OPENERS or after in ("", ",", ";"))
+        if not (nxt.endswith("ing") and nxt.isalpha() and self.wordnet.is_verb(nxt)):
+            return False
+        if self.wordnet.noun_class(nxt) not in (None, "abstract"):  # "a red building", "a white building on the corner"
+            return after in OBJECT_OPENERS  # ... unless an object follows: "an individual crossing the road"
+        return after in DIRECTIONS | OBJECT_OPENERS or after in ("", ",", ";")
 
     def _phrase_start(self, words: Sequence[str], i: int) -> int:
         """Where the noun phrase of the noun at ``i`` starts: back over adjectives, commas and "and"
@@ -429,9 +437,9 @@ class MentionFinder:
                     continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
             if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:
                 continue  # "arafed man": an unknown word before a noun qualifies it
-            if (unit.word_class == "person" and nxt is not None and nxt.start == unit.end == unit.start + 1
+            if (unit.word_class == "person" and nxt is not None and nxt.start == unit.end and unit.text in AGE_WORDS
                     and nxt.word_class == "animal"):
-                continue  # "an adult dog", "a kid goat", "a baby elephant": the word says the animal's age
+                continue  # "an adult dog", "a kid goat": the word says the animal's age (not "a man horse riding")
             if unit.word_class == "abstract":
                 continue
             kept.append(unit)

@@ -170,3 +170,20 @@ def test_drivers_are_people_and_a_jam_is_traffic(extractor: SpecExtractor, capti
 ])
 def test_riding_something_else_is_not_cycling(extractor: SpecExtractor, caption: str) -> None:
     assert extractor.extract(caption).label != "cyclist"
+
+
+def test_the_sim_captioners_grammar_reads_as_its_classes(extractor: SpecExtractor) -> None:
+    """Every crop caption the VLE's grammar writes (``llmland_vle.captions``: a class, a colour,
+    a motion word, a surface) keeps its class: a rule that read "a red building" as a person
+    (WordNet's "red", "white", "black" are people too) would turn the worlds' buildings into
+    people."""
+    colours = ("white", "black", "gray", "red", "orange", "yellow", "green", "blue", "purple", "brown", "pink")
+    for colour in colours:
+        for noun in ("building", "shed", "rock", "tree", "bush"):
+            for where in ("", " on the grass", " on the road"):
+                spec = extractor.extract(f"a {colour} {noun}{where}")
+                assert not spec.is_human and not spec.is_dynamic and spec.buffer_m <= 1.0, (colour, noun, spec)
+        spec = extractor.extract(f"a person in a {colour} shirt walking on the grass")
+        assert spec.is_human and spec.buffer_m >= 3.0, spec
+        spec = extractor.extract(f"a {colour} car driving on the road")
+        assert spec.is_dynamic and spec.buffer_m >= 5.0, spec
