@@ -267,7 +267,9 @@ class MentionFinder:
         if lemma not in FORM_NOUNS and lemma not in VAGUE_NOUNS:
             return False
         rest = words[i + 1 : i + 3]
-        if (rest and (rest[0] == "of" or rest[0].isdigit())) or SHOWING_VERBS.intersection(rest):
+        of_something = rest[:1] == ["of"] and words[i + 2 : i + 4] not in (["some", "kind"], ["some", "sort"])
+        numbered = rest[:1] != [] and rest[0].isdigit() and bool(SHOWING_VERBS.intersection(words[i + 2 : i + 4]))
+        if of_something or numbered or SHOWING_VERBS.intersection(rest):
             return False
         start = self._phrase_start(words, i)
         if start > 0 and words[start - 1] == "in":

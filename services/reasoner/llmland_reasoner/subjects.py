@@ -85,12 +85,14 @@ VERBS = ANIMAL_VERBS | DRIVING_VERBS | MOVING_VERBS | AGENT_VERBS
 #: Agent verbs that qualify the noun after them as a thing that moves ("a moving object"); not
 #: the ones that name a use ("a walking cane", "a racing bike", "a travelling circus").
 PRENOMINAL_AGENT_VERBS = frozenset({"moving", "approaching", "advancing"})
-#: What moves a thing that is no agent ("a flag moving in the wind", "a bag moving in the air",
-#: "a buoy moving in the waves"); looked for this many words on.
-WIND_WORDS = frozenset("wind winds breeze gust gusts air waves current currents".split())
+#: What moves a thing that is no agent ("a flag moving in the wind", "a buoy moving in the
+#: waves"); looked for this many words on. Not "air" ("an object moving through the air" flies).
+WIND_WORDS = frozenset("wind winds breeze gust gusts waves".split())
 WIND_REACH = 6
 #: Words after a verb of motion that make it a swing, not a way somewhere ("back and forth").
-OSCILLATION_STARTS = frozenset({("back", "and"), ("up", "and"), ("to", "and"), ("round", "and")})
+OSCILLATION_STARTS = frozenset({("back", "and"), ("to", "and"), ("round", "and")})
+#: Nouns after a verb of motion that say where to, not what the participle qualifies ("moving north").
+WHITHER_NOUNS = frozenset("north south east west home forward forwards backward backwards ahead".split())
 #: How far before a thing (words) a negator may stand ("none of the objects are moving", "not a
 #: single thing moving").
 NEGATION_BEFORE = 3
@@ -230,7 +232,7 @@ def _goes_somewhere(words: Sequence[str], j: int, k: int, subject: Found | None,
     if WIND_WORDS.intersection(words[j + 1 : j + 1 + WIND_REACH]) or tuple(words[j + 1 : j + 3]) in OSCILLATION_STARTS:
         return False
     nxt = words[j + 1] if j + 1 < len(words) else ""
-    if (nxt.isalpha() and nxt not in FUNCTION_WORDS and not wordnet.is_adjective(nxt)
+    if (nxt.isalpha() and nxt not in FUNCTION_WORDS and nxt not in WHITHER_NOUNS and not wordnet.is_adjective(nxt)
             and wordnet.noun_class(wordnet.lemma(nxt)) not in (None, "abstract")):
         return False  # "a local walking trail": the participle qualifies the thing after it
     return not NOT_THERE.intersection(words[max(0, k - NEGATION_BEFORE) : j])

@@ -179,6 +179,8 @@ def test_compound_and_short_names(finder: MentionFinder, caption: str, expected:
     ("an unidentified object on the road", {"object": "unknown", "road": "terrain"}),  # before the KB's "object"
     ("a blurry shape on the road", {"shape": "unknown", "road": "terrain"}),
     ("a strange, dark object near the tree", {"object": "unknown", "tree": "vegetation"}),
+    ("a strange object of some kind on the road", {"object": "unknown", "road": "terrain"}),  # "of" names nothing
+    ("a dark figure 20 meters from the pad", {"figure": "unknown", "meters": "object", "pad": "terrain"}),
     # ... not a figurine, nor the picture itself, nor a thing named without doubt
     ("a wooden figure on the porch", {"figure": "terrain", "porch": "structure"}),
     ("an action figure on the table", {"figure": "terrain", "table": "object"}),

@@ -133,6 +133,9 @@ def test_an_animal_verb_after_a_pronoun_still_implies_an_animal(finder: MentionF
     ("something moving in the bushes", "moving"),  # "moving in" is no compound noun
     ("an object crossing the road", "object"),  # a vague noun: any verb of motion
     ("an object rolling across the road", "object"),
+    ("an object moving north across the field", "object"),  # where to, not what it qualifies (review)
+    ("a red umbrella moving up and down the sidewalk", "umbrella"),  # travel, not a swing
+    ("an object moving through the air above the trees", "object"),  # flying, not blown
 ])
 def test_a_thing_going_somewhere_is_an_unknown_agent(finder: MentionFinder, caption: str, word: str) -> None:
     assert classes(finder.find(caption)).get(word) == "unknown"
