@@ -39,6 +39,7 @@ from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .lexicon import CLASS_WORDS, WordNet
 from .mention_cache import CachedGrounding, MentionCache, MentionKey
 from .mentions import Found, tokenize
+from .words import FUNCTION_WORDS
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
 WINDOW_WORDS = 4
@@ -250,9 +251,12 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:
     """Whether a stationary cue belongs to this vehicle: within :data:`CUE_REACH` words after it
-    ("cars are parked") or before it ("parked with numerous cars"), no other thing in between."""
+    ("cars are parked") or before it ("parked with numerous cars"), no other thing in between.
+    Not "parking" right after it as a verb ("a truck parking along the curb": it still moves)."""
     others = [m for m in mentions if m is not vehicle]
     for j in range(max(0, vehicle.start - CUE_REACH), min(len(words), vehicle.end + CUE_REACH)):
+        if j == vehicle.end and words[j] == "parking" and (j + 1 == len(words) or words[j + 1] in FUNCTION_WORDS):
+            continue  # "a truck parking along the curb": still moving, into its space
         if words[j] in STATIONARY_CUES and not (vehicle.start <= j < vehicle.end):
             lo, hi = sorted((j, vehicle.start if j < vehicle.start else vehicle.end - 1))
             if not any(lo < m.start <= hi or lo <= m.end - 1 < hi for m in others):

@@ -187,3 +187,14 @@ def test_the_sim_captioners_grammar_reads_as_its_classes(extractor: SpecExtracto
         assert spec.is_human and spec.buffer_m >= 3.0, spec
         spec = extractor.extract(f"a {colour} car driving on the road")
         assert spec.is_dynamic and spec.buffer_m >= 5.0, spec
+
+
+@pytest.mark.parametrize(("caption", "dynamic"), [
+    ("a truck parking along the curb", True),  # the act of parking: it still moves (was a parked car)
+    ("a car parking in a tight space", True),
+    ("a white van parked in a parking lot", False),
+    ("a bus parked at the depot", False),
+])
+def test_a_vehicle_parking_still_moves(extractor: SpecExtractor, caption: str, dynamic: bool) -> None:
+    spec = extractor.extract(caption)
+    assert spec.is_dynamic == dynamic and spec.buffer_m >= 5.0, spec
