@@ -218,11 +218,17 @@ def _carried(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
     there) that :data:`CARRYING_CUES` say carries them, at most :data:`RIDE_REACH` words on ("a
     motorbike with two riders", "a scooter carrying a woman"), no other thing named between."""
     prev = max((m for m in mentions if m.end <= person.start), key=lambda m: m.end, default=None)
-    if prev is None or prev.kb_id not in TWO_WHEELER_IDS or prev.status == "negated":
+    if prev is None or not _rideable(words, prev):
         return False
     gap = words[prev.end : person.start]
-    beside = words[max(0, prev.start - 1) : prev.end + 1]
-    return bool(gap) and gap[0] in CARRYING_CUES and len(gap) <= RIDE_REACH and not PARKED_TWO_WHEELER & set(beside)
+    return bool(gap) and gap[0] in CARRYING_CUES and len(gap) <= RIDE_REACH
+
+
+def _rideable(words: Sequence[str], m: Found) -> bool:
+    """A two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated nor parked right there (its words and
+    one each side, :data:`PARKED_TWO_WHEELER`): someone may be riding it."""
+    beside = words[max(0, m.start - 1) : m.end + 1]
+    return m.kb_id in TWO_WHEELER_IDS and m.status != "negated" and not PARKED_TWO_WHEELER & set(beside)
 
 
 def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
@@ -243,8 +249,7 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
             continue
         if any(m.word_class == "person" for m in mentions if person.end <= m.start <= nxt.start):
             return False  # another person comes first: what follows is theirs
-        beside = words[max(0, nxt.start - 1) : nxt.end + 1]  # the two-wheeler's words and one each side
-        if nxt.kb_id in TWO_WHEELER_IDS and nxt.status != "negated" and not PARKED_TWO_WHEELER & set(beside):
+        if _rideable(words, nxt):
             return True
     return False
 

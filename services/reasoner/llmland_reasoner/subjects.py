@@ -96,8 +96,6 @@ WHITHER_NOUNS = frozenset("north south east west home forward forwards backward 
 #: How far before a thing (words) a negator may stand ("none of the objects are moving", "not a
 #: single thing moving").
 NEGATION_BEFORE = 3
-#: Words before a thing that say it is not there, for the agent verbs.
-NOT_THERE = frozenset({"no", "nothing", "none", "without", "not"})
 #: Words that make "driving" intransitive: a direction or a place follows.
 DIRECTIONS = frozenset(
     "down along up across through past into onto toward towards around over on in away off by out under "
@@ -123,6 +121,8 @@ EXTRAPOSED = frozenset("that to how what whether why".split())
 MIN_ING_VERB_LETTERS = 5
 #: Words before an implied subject that say nothing is there ("no longer grazing" is not this).
 NOTHING = frozenset("no nothing none without".split())
+#: Words before a thing that say it is not there, for the agent verbs (a wider window: "not a single thing").
+NOT_THERE = NOTHING | {"not"}
 #: Classes a verb never changes: each is at least as careful as any reading a verb could give
 #: (people, animals: living; vehicles: 5 m; unknown: the careful spec).
 SETTLED = frozenset({"person", "animal", "vehicle", "unknown"})
