@@ -314,9 +314,9 @@ class MentionFinder:
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
             return None
         compound = self._compound(words, i)
-        if kb is not None and self._ends_in_a_verb(words, i, kb[0]):
+        if kb is not None and self._ends_in_a_verb(words, i, kb[0], kb[1].category):
             kb = self._kb_match(words[: i + kb[0] - 1], i)  # "a pedestrian crossing the street": a person
-        if compound is not None and self._ends_in_a_verb(words, i, compound[0]):
+        if compound is not None and self._ends_in_a_verb(words, i, compound[0], compound[1]):
             compound = None
         if compound is None and self._unmade_out(words, i):  # before the KB's "object": what it is is unknown
             return 1, "unknown", "unknown", None
@@ -334,14 +334,21 @@ class MentionFinder:
             return 1, cls, "wordnet", None
         return None
 
-    @staticmethod
-    def _ends_in_a_verb(words: Sequence[str], i: int, n: int) -> bool:
-        """Whether a name of ``n`` words at ``i`` ends in a participle that an object or a way
-        (:data:`WAYS`) follows, so a verb, not the name's last word: "a pedestrian crossing the
-        street", "a zebra crossing the road" (the crosswalks: "a zebra crossing on a quiet road")."""
-        if n < 2 or i + n >= len(words):
+    def _ends_in_a_verb(self, words: Sequence[str], i: int, n: int, cls: str) -> bool:
+        """Whether a name of ``n`` words at ``i`` (of class ``cls``) ends in a participle that is
+        the verb of the words before it, not the name's last word: when an object or a way
+        (:data:`WAYS`) follows ("a pedestrian crossing the street", "a zebra crossing the road";
+        the crosswalks: "a zebra crossing on a quiet road"), or when the name is a thing, a word
+        before the participle names a person and a preposition follows ("a pedestrian crossing
+        at the intersection": the crosswalk or a person crossing there; read as the person, whom
+        the other reading would give no buffer at all)."""
+        if n < 2 or i + n >= len(words) or not words[i + n - 1].endswith("ing"):
             return False
-        return words[i + n - 1].endswith("ing") and words[i + n] in WAYS | OBJECT_OPENERS
+        after = words[i + n]
+        if after in WAYS | OBJECT_OPENERS:
+            return True
+        return (after in PERSON_PREPOSITIONS and cls not in _LIVING_OR_VEHICLE
+                and any(self._care_of_word(w) == _CARE_ORDER["person"] for w in words[i : i + n - 1]))
 
     def _implied_person(self, word: str) -> tuple[int, str, Source, str | None]:
         """The unit of a person named by a pronoun (:data:`PERSON_PRONOUNS`) or a crowd adjective

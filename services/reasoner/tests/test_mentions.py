@@ -213,6 +213,12 @@ def test_what_the_captioner_could_not_make_out(finder: MentionFinder, caption: s
     ("a zebra crossing the road", {"zebra": "animal", "road": "terrain"}),
     ("a pedestrian crossing towards the park", {"pedestrian": "person", "park": "terrain"}),
     ("a zebra crossing on a quiet road", {"zebra crossing": "terrain", "road": "terrain"}),  # the crosswalk
+    # ... or a preposition, when a person word comes before it: the person, not a 0 m crosswalk
+    ("a pedestrian crossing at the intersection", {"pedestrian": "person", "intersection": "terrain"}),
+    ("a pedestrian crossing near the school", {"pedestrian": "person", "school": "structure"}),
+    ("a pedestrian crossing", {"pedestrian crossing": "terrain"}),  # nothing after it: the crosswalk
+    ("a pedestrian crossing sign on a pole", {"pedestrian crossing": "terrain", "pole": "structure"}),
+    ("a person sitting at a table", {"person sitting": "person", "table": "object"}),  # a person's name stays
     # a person word right before an animal says its age: the animal is there, not a person
     ("an adult dog on the grass", {"dog": "animal", "grass": "terrain"}),  # was a 3 m person
     ("a kid goat in the barnyard", {"goat": "animal", "barnyard": "structure"}),
