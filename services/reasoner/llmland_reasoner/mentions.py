@@ -332,7 +332,41 @@ class MentionFinder:
             if i + 1 < len(words) and words[i + 1] in PARKED:
                 cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
+        return self._hyphenated(words, i) if "-" in words[i] else None
+
+    def _hyphenated(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
+        """The unit of a hyphenated word the KB and WordNet lack as written: as they write it,
+        spaced ("go-kart": the KB's go kart) or joined ("pick-up": a pickup); else, where it
+        ends its noun phrase, by its last part, which names what it is (English compounds are
+        right-headed: an "e-bike" is a bike, an "18-wheeler" a wheeler, which moves in every
+        WordNet sense).
+        Before a noun it only qualifies it ("a single-family home", "a two-lane road", "an
+        e-bike rider", "a bird's-eye view"), and a number or a letter names nothing. Was: no
+        mention at all ("an 18-wheeler on the highway" was the highway, 0 m)."""
+        if self._qualifies_next(words, i):
+            return None
+        parts = words[i].split("-")
+        spaced = self._unit([*words[:i], *parts, *words[i + 1 :]], i)
+        if spaced is not None and spaced[0] == len(parts):
+            return 1, *spaced[1:]
+        whole = self.wordnet.noun_class(" ".join(parts))  # "cul-de-sac": WordNet's cul de sac, not a sac
+        if whole is not None:
+            return 1, whole, "wordnet", None
+        for word in ("".join(parts), parts[-1]):
+            if not word.isalpha() or len(word) < 3:
+                continue
+            unit = self._unit([*words[:i], word, *words[i + 1 :]], i)
+            if unit is not None and unit[0] == 1:
+                return unit
         return None
+
+    def _qualifies_next(self, words: Sequence[str], i: int) -> bool:
+        """Whether the word after ``i`` is a noun that ``words[i]`` qualifies (not a function word,
+        a participle or a word used mostly as a verb)."""
+        nxt = words[i + 1] if i + 1 < len(words) else ""
+        if not nxt.isalpha() or nxt in FUNCTION_WORDS or nxt.endswith(("ing", "ed")) or self.wordnet.mostly_verb(nxt):
+            return False
+        return self._kb_match(words, i + 1) is not None or self.wordnet.is_noun(self.wordnet.lemma(nxt))
 
     def _ends_in_a_verb(self, words: Sequence[str], i: int, n: int, cls: str) -> bool:
         """Whether a name of ``n`` words at ``i`` (of class ``cls``) ends in a participle that is

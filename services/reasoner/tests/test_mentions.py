@@ -228,3 +228,23 @@ def test_what_the_captioner_could_not_make_out(finder: MentionFinder, caption: s
 def test_names_that_end_in_a_verb_and_ages_of_animals(finder: MentionFinder, caption: str,
                                                        expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
+
+
+@pytest.mark.parametrize(("caption", "expected"), [
+    # a hyphenated word the KB and WordNet lack as written was no mention at all (the road, 0 m)
+    ("a fire-truck on the street", {"fire-truck": "vehicle", "street": "terrain"}),  # spaced: the KB's fire truck
+    ("a go-kart on a track", {"go-kart": "vehicle", "track": "terrain"}),
+    ("a pick-up on the road", {"pick-up": "vehicle", "road": "terrain"}),  # joined: a pickup
+    ("a cul-de-sac with houses", {"cul-de-sac": "terrain", "houses": "structure"}),  # WordNet's, not a sac
+    ("the 18-wheeler is merging onto the freeway", {"18-wheeler": "vehicle", "freeway": "terrain"}),
+    ("a double-decker on the street", {"double-decker": "vehicle", "street": "terrain"}),  # by its last part
+    ("a sea-lion on the rocks", {"sea-lion": "animal", "rocks": "terrain"}),
+    # before a noun it qualifies the noun; a number or a letter names nothing
+    ("a single-family home with a yard", {"home": "structure", "yard": "terrain"}),
+    ("an e-bike rider on the street", {"rider": "person", "street": "terrain"}),
+    ("a bird's-eye view of a park", {"park": "terrain"}),
+    ("a two-lane road through the forest", {"road": "terrain", "forest": "vegetation"}),
+    ("a man in a t-shirt walking", {"man": "person", "t-shirt": "object"}),
+])
+def test_hyphenated_words(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
+    assert present(finder.find(caption)) == expected

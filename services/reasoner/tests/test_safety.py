@@ -198,3 +198,19 @@ def test_the_sim_captioners_grammar_reads_as_its_classes(extractor: SpecExtracto
 def test_a_vehicle_parking_still_moves(extractor: SpecExtractor, caption: str, dynamic: bool) -> None:
     spec = extractor.extract(caption)
     assert spec.is_dynamic == dynamic and spec.buffer_m >= 5.0, spec
+
+
+@pytest.mark.parametrize(("caption", "label", "dynamic"), [
+    # KB 1.3.0: machines and two-wheelers no entry named (were a static bicycle, a crane, sand)
+    ("a riding mower cutting stripes into the lawn", "ride-on mower", True),
+    ("a lawn mower cutting the grass", "ride-on mower", True),
+    ("a crop duster flying low over the fields", "aircraft", True),
+    ("an 18-wheeler on the highway", "truck", True),
+    ("a man on an e-bike", "cyclist", True),  # an e-bike's rider (was a 3 m skateboarder)
+    ("someone on a vespa in a narrow alley", "cyclist", True),  # was a 3 m pedestrian
+    ("a mower parked next to a shed", "parked car", False),
+])
+def test_machines_and_two_wheelers_the_kb_names(extractor: SpecExtractor, caption: str, label: str,
+                                                dynamic: bool) -> None:
+    spec = extractor.extract(caption)
+    assert spec.label == label and spec.is_dynamic == dynamic and spec.buffer_m >= 5.0, spec
