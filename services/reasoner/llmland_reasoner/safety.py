@@ -257,11 +257,16 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
 def _parked(words: Sequence[str], vehicle: Found, mentions: Sequence[Found]) -> bool:
     """Whether a stationary cue belongs to this vehicle: within :data:`CUE_REACH` words after it
     ("cars are parked") or before it ("parked with numerous cars"), no other thing in between.
-    Not "parking" right after it as a verb ("a truck parking along the curb": it still moves)."""
+    Not "parking" right after it as a verb ("a truck parking along the curb": it still moves),
+    nor a cue right before another thing, which it qualifies ("an SUV leaving the parking
+    garage", "a bus passing the parked cars": the garage, the cars)."""
     others = [m for m in mentions if m is not vehicle]
+    starts = {m.start: m for m in others}
     for j in range(max(0, vehicle.start - CUE_REACH), min(len(words), vehicle.end + CUE_REACH)):
         if j == vehicle.end and words[j] == "parking" and (j + 1 == len(words) or words[j + 1] in FUNCTION_WORDS):
             continue  # "a truck parking along the curb": still moving, into its space
+        if j + 1 in starts and (words[j] == "parking" or starts[j + 1].word_class == "vehicle"):
+            continue  # "the parking garage", "the parked cars": another thing's word ("cars parked road": not a road's)
         if words[j] in STATIONARY_CUES and not (vehicle.start <= j < vehicle.end):
             lo, hi = sorted((j, vehicle.start if j < vehicle.start else vehicle.end - 1))
             if not any(lo < m.start <= hi or lo <= m.end - 1 < hi for m in others):

@@ -194,6 +194,10 @@ def test_the_sim_captioners_grammar_reads_as_its_classes(extractor: SpecExtracto
     ("a car parking in a tight space", True),
     ("a white van parked in a parking lot", False),
     ("a bus parked at the depot", False),
+    # a cue right before another thing qualifies that thing (was a parked SUV, a parked bus)
+    ("an SUV leaving the parking garage", True),
+    ("a bus passing the parked cars", True),
+    ("a parked red car on the street", False),
 ])
 def test_a_vehicle_parking_still_moves(extractor: SpecExtractor, caption: str, dynamic: bool) -> None:
     spec = extractor.extract(caption)
