@@ -159,6 +159,12 @@ def window(words: Sequence[str], found: Found) -> str:
     return " ".join(words[found.start : max(found.end, found.start + WINDOW_WORDS)])
 
 
+#: Classes whose KB-named mention is its named entry: a static thing the KB names is that thing,
+#: whatever the words after it resemble ("a green tree on the grass" was the KB's tall grass,
+#: altitude floor 1.5 m against a tree's 12 m: the window's "grass" won the similarity).
+STATIC_NAMED_CLASSES = frozenset({"structure", "vegetation"})
+
+
 def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bool = False,
                astride: bool = False) -> list[KbEntry]:
     """The KB entries a mention may be grounded in: its class's; for a vehicle the moving ones,
@@ -166,7 +172,8 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
     plain ground (water and rocks only by name); for a person the riders (a person
     class with a larger buffer: cyclist) only when a vehicle or bicycle is named near it, and
     only the riders when the caption puts the person on it (``astride``: "a boy on a dirt bike")
-    or names the person by a rider's KB name ("bikers on the trail")."""
+    or names the person by a rider's KB name ("bikers on the trail"); for a static thing the KB
+    names (:data:`STATIC_NAMED_CLASSES`), its named entry."""
     categories = CLASS_CATEGORIES.get(found.word_class, ())
     entries = [e for e in kb.entries if e.category in categories]
     if found.word_class == "terrain" and found.source == "wordnet":
@@ -180,6 +187,8 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
             entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
     if found.word_class == "vehicle":
         entries = [e for e in entries if e.is_dynamic != parked] or entries
+    if found.word_class in STATIC_NAMED_CLASSES:
+        entries = [e for e in entries if e.id == found.kb_id] or entries
     return entries
 
 
