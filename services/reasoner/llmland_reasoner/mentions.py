@@ -68,6 +68,8 @@ QUANTIFIERS = frozenset(
     "couple pair lot lots number bunch dozen dozens handful set series row rows line lines kind kinds sort "
     "sorts variety plenty piece pieces part parts rest majority".split()
 )
+#: Nouns of any group, which WordNet files as an abstraction rather than a group of someone.
+GROUP_NOUNS = frozenset({"group", "groups"})
 #: Words that name a person without a noun: a pronoun subject ("he is lying on the grass") or an
 #: indefinite one ("someone", "everybody"). Not "her" (a possessive as often: "a woman and her
 #: dog"), "they"/"it" (people or things alike), nor "anyone"/"anybody", which stand mostly where
@@ -90,6 +92,8 @@ TRAFFIC_ROADS = frozenset(
 )
 #: Classes of a place people crowd; a crowd adjective before anything else qualifies a thing.
 _PLACE_CLASSES = frozenset({"terrain", "unknown"})
+#: Named wheeled things a person can ride (KB ids outside the vehicle class).
+RIDDEN_IDS = frozenset({"bicycle"})
 #: How many words may stand between a collective noun's "of" and what it counts ("a family of
 #: wild ducks", "a herd of black and white cows"): plural determiners, numbers, adjectives and
 #: "and" between adjectives; not a singular determiner (:data:`SINGULAR_DETERMINERS`: "the crew
@@ -436,9 +440,17 @@ class MentionFinder:
         if word.endswith(("ing", "ed", "ly")) or self.wordnet.is_known(word):
             return False
         # a noun phrase starts there: the caption's start ("Quokka sitting in a parking lot"), after
-        # a determiner ("a quokka") or a conjunction ("a road and quokkas"); elsewhere an unknown
-        # word is more likely a modifier or a misspelling of the head that follows
-        return i == 0 or words[i - 1] in DETERMINERS or words[i - 1] in NOUN_PHRASE_CONJUNCTIONS
+        # a determiner ("a quokka"), a conjunction ("a road and quokkas") or the "of" of a quantity
+        # ("a pair of birdwatchers", "a group of quokkas": what it counts); elsewhere an unknown
+        # word is more likely a modifier or a misspelling of the head that follows ("a field of
+        # dandylions": a place's "of" is left to that rule)
+        return i == 0 or words[i - 1] in DETERMINERS or words[i - 1] in NOUN_PHRASE_CONJUNCTIONS \
+            or (i >= 2 and words[i - 1] == "of" and self._counts(words[i - 2]))
+
+    def _counts(self, word: str) -> bool:
+        """Whether a noun before "of" counts what follows: a quantity (:data:`QUANTIFIERS`, "group")
+        or a collective noun ("a crowd of", "a herd of")."""
+        return word in QUANTIFIERS or word in GROUP_NOUNS or (word.isalpha() and self._mostly_group(word))
 
     # ------------------------------------------------------------------ mentions
     def find(self, caption: str) -> list[Found]:
@@ -475,7 +487,9 @@ class MentionFinder:
                     continue
                 if nxt.word_class in _LIVING_OR_VEHICLE and unit.text in DEPICTION_MODIFIERS:
                     continue  # "inflatable dinosaur": the pair becomes one depiction below
-                if unit.word_class not in _LIVING_OR_VEHICLE or (
+                if unit.kb_id in RIDDEN_IDS and nxt.word_class == "person":
+                    pass  # "an e-bike rider", "a bicycle courier": what they ride stays named
+                elif unit.word_class not in _LIVING_OR_VEHICLE or (
                         unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown")):
                     continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
             if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:

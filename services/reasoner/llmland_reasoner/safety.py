@@ -38,7 +38,7 @@ from .grounding import NameIndex
 from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .lexicon import CLASS_WORDS, WordNet
 from .mention_cache import CachedGrounding, MentionCache, MentionKey
-from .mentions import Found, tokenize
+from .mentions import RIDDEN_IDS, Found, tokenize
 from .words import FUNCTION_WORDS
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
@@ -192,8 +192,6 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
     return entries
 
 
-#: Named wheeled things a person can ride (KB ids outside the vehicle class).
-RIDDEN_IDS = frozenset({"bicycle"})
 #: The KB's two-wheelers, whose rider is the KB's cyclist (5 m: "a person riding a bicycle or
 #: motorbike"); a person on a skateboard, a boat or a bus is not put among the riders by rule.
 TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
@@ -220,17 +218,29 @@ def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
 
 #: Words that put a person named right after a two-wheeler on it ("a motorbike with two riders").
 CARRYING_CUES = frozenset({"with", "carrying"})
+#: Verbs that put the person named before them on a two-wheeler none names ("a man cycling down
+#: the road", "a family biking along the canal"), unless they qualify the noun after them ("a
+#: cycling path").
+CYCLING_VERBS = frozenset(
+    "cycling cycled bicycling biking biked pedalling pedaling pedalled pedaled motorcycling motorbiking".split())
 
 
 def _carried(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
     """Whether the person is named right after a two-wheeler (neither negated nor parked right
-    there) that :data:`CARRYING_CUES` say carries them, at most :data:`RIDE_REACH` words on ("a
+    there) that names what they ride ("a motorbike rider", "a moped driver", "an e-bike courier")
+    or that :data:`CARRYING_CUES` say carries them, at most :data:`RIDE_REACH` words on ("a
     motorbike with two riders", "a scooter carrying a woman"), no other thing named between."""
     prev = max((m for m in mentions if m.end <= person.start), key=lambda m: m.end, default=None)
     if prev is None or not _rideable(words, prev):
         return False
     gap = words[prev.end : person.start]
-    return bool(gap) and gap[0] in CARRYING_CUES and len(gap) <= RIDE_REACH
+    return not gap or (gap[0] in CARRYING_CUES and len(gap) <= RIDE_REACH)
+
+
+def _cycling(words: Sequence[str], j: int, mentions: Sequence[Found]) -> bool:
+    """Whether ``words[j]`` is a :data:`CYCLING_VERBS` verb, not a modifier of a thing named right
+    after it."""
+    return words[j] in CYCLING_VERBS and not any(m.start == j + 1 for m in mentions)
 
 
 def _rideable(words: Sequence[str], m: Found) -> bool:
@@ -251,6 +261,8 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
     if _carried(words, person, mentions):
         return True
     for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):
+        if _cycling(words, j, mentions):
+            return not any(m.word_class == "person" for m in mentions if person.end <= m.start < j)
         if words[j] not in RIDING_CUES:
             continue
         nxt = min((m for m in mentions if m.start > j), key=lambda m: m.start, default=None)

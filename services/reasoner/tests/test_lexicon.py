@@ -80,6 +80,15 @@ def test_plurals_fold_to_their_lemma(wordnet: WordNet, word: str, lemma: str) ->
     assert wordnet.lemma(word) == lemma
 
 
+@pytest.mark.parametrize(("word", "cls"), [("pole", "object"), ("paddy", "terrain"), ("ram", "animal"),
+                                         ("ottoman", "object"), ("blimp", "vehicle")])
+def test_a_sense_named_only_capitalised_is_a_name(wordnet: WordNet, word: str, cls: str) -> None:
+    """"Pole", "Paddy" (people), "RAM", "Ottoman" (a Turk), "Blimp" (a pompous man) are names: the
+    word's class comes from its common-noun senses, as :meth:`WordNet.senses` reads them ("a pole"
+    was a person, "a water buffalo in a paddy" a person)."""
+    assert wordnet.noun_class(word) == cls
+
+
 def test_unknown_and_part_of_speech(wordnet: WordNet) -> None:
     assert wordnet.noun_class("quokka") is None and not wordnet.is_known("arafed")
     assert wordnet.is_adjective("green") and wordnet.is_adjective("lush") and not wordnet.is_adjective("beetle")

@@ -36,6 +36,12 @@ def present(found: list[Found]) -> dict[str, str]:
     ("quokka on a rock", {"quokka": "unknown", "rock": "terrain"}),
     ("Quokkas sitting on a rock", {"quokkas": "unknown", "rock": "terrain"}),
     ("a rock and quokka", {"rock": "terrain", "quokka": "unknown"}),
+    # ... and after "of": what a quantity counts (was no mention: "a pair of birdwatchers with
+    # binoculars" was the binoculars, "a group of quokkas on a hill" the hill, 0 m)
+    ("a pair of quokkas on a boardwalk", {"quokkas": "unknown", "boardwalk": "terrain"}),
+    ("a group of birdwatchers on a hill", {"group": "terrain", "birdwatchers": "unknown", "hill": "terrain"}),
+    # a bicycle naming a person stays named: what they ride ("ebike" was dropped as a qualifier)
+    ("an ebike rider at a crosswalk", {"ebike": "structure", "rider": "person", "crosswalk": "terrain"}),
     # qualifiers and verbs are not things; captioner artefacts are not things
     ("arafed man standing in a field", {"man": "person", "field": "terrain"}),
     ("a tennis player swings his racket at a ball",
@@ -241,7 +247,8 @@ def test_names_that_end_in_a_verb_and_ages_of_animals(finder: MentionFinder, cap
     ("a sea-lion on the rocks", {"sea-lion": "animal", "rocks": "terrain"}),
     # before a noun it qualifies the noun; a number or a letter names nothing
     ("a single-family home with a yard", {"home": "structure", "yard": "terrain"}),
-    ("an e-bike rider on the street", {"rider": "person", "street": "terrain"}),
+    # ... but a bicycle naming a person stays named: what they ride (a cyclist, safety.py)
+    ("an e-bike rider on the street", {"e-bike": "structure", "rider": "person", "street": "terrain"}),
     ("a bird's-eye view of a park", {"park": "terrain"}),
     ("a two-lane road through the forest", {"road": "terrain", "forest": "vegetation"}),
     ("a man in a t-shirt walking", {"man": "person", "t-shirt": "object"}),

@@ -230,3 +230,37 @@ def test_a_static_thing_the_kb_names_is_that_thing(extractor: SpecExtractor, cap
                                                    z_min: float) -> None:
     spec = extractor.extract(caption)
     assert spec.label == label and spec.z_min == z_min and not spec.is_dynamic, spec
+
+
+@pytest.mark.parametrize("caption", [
+    # a two-wheeler naming the person: what they ride (were 3 m: a skateboarder, a pedestrian)
+    "a motorbike rider on the road",
+    "an ebike rider waiting at a crosswalk",
+    "a moped driver at the lights",
+    "a bicycle courier weaving through traffic",
+    # a cycling verb puts the person on a bicycle no one names (were a 3 m hiker)
+    "a man cycling down the road",
+    "a family cycling along the canal towpath",
+    "a woman biking on a trail",
+    "a woman next to a man cycling",
+])
+def test_a_person_on_a_two_wheeler_is_a_cyclist(extractor: SpecExtractor, caption: str) -> None:
+    spec = extractor.extract(caption)
+    assert spec.label == "cyclist" and spec.is_human and spec.buffer_m >= 5.0, spec
+
+
+@pytest.mark.parametrize(("caption", "dynamic"), [
+    # KB 1.3.1: trailers are the truck's (WordNet's first sense of "trailer" is a dawdler: a
+    # 3 m person won "a truck pulling a trailer"; "a horse trailer" was a horse)
+    ("a truck pulling a trailer on the highway", True),
+    ("an empty horse trailer parked by the stables", False),
+])
+def test_a_trailer_is_a_vehicle(extractor: SpecExtractor, caption: str, dynamic: bool) -> None:
+    spec = extractor.extract(caption)
+    assert not spec.is_human and spec.is_dynamic == dynamic and spec.buffer_m >= 5.0, spec
+
+
+@pytest.mark.parametrize("caption", ["a pair of quokkas on a boardwalk", "a group of birdwatchers on a hill"])
+def test_an_unknown_word_a_quantity_counts_is_careful(extractor: SpecExtractor, caption: str) -> None:
+    spec = extractor.extract(caption)  # was the boardwalk, the hill: 0 m
+    assert spec.is_dynamic and spec.buffer_m >= 5.0, spec
