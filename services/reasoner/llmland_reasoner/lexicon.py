@@ -238,9 +238,9 @@ class WordNet:
         out: list[Sense] = []
         for s in self._senses(word):
             with self._lock:
-                if s.instance_hypernyms() or not _written_lower(s, key):
-                    continue
                 lemmas = [lm for lm in s.lemmas() if lm.name().lower() == key.lower()]
+                if s.instance_hypernyms() or not lemmas or lemmas[0].name() != lemmas[0].name().lower():
+                    continue
                 closure = _hypernyms(s)
                 out.append(Sense(s.name(), _sense_class(s), _plain(s), s.lemmas()[0].name().lower() == key.lower(),
                                  bool(closure & GROUP_ANCHORS), int(lemmas[0].count())))
@@ -294,15 +294,13 @@ class WordNet:
         senses = [s for s in self._senses(word) if not s.instance_hypernyms()]
         if not senses:
             return None
-        key = word.replace(" ", "_")
-        with self._lock:
-            common_nouns = [s for s in senses if _written_lower(s, key)]
-        # a sense the word names only capitalised is a name, as in :meth:`_senses_of` ("Pole",
-        # "Paddy": a pole, a rice paddy), unless the word has no other
-        senses = common_nouns or senses
+        # senses WordNet names only capitalised count here (unlike :meth:`_senses_of`'s readings):
+        # captioners write lower case, so "a siamese", "jerseys grazing", "brownies hiking" may
+        # mean them; skipping them made those a bench, a bench and a path (tried, not kept)
         classes = [_sense_class(s) for s in senses]
         concrete = [k for k, c in enumerate(classes) if c != "abstract"]
         keep = concrete or list(range(len(senses)))  # "yard": the garden, not the unit of length
+        key = word.replace(" ", "_")
         with self._lock:
             counts = [sum(lemma.count() for lemma in senses[k].lemmas() if lemma.name().lower() == key) for k in keep]
         top = max(counts)
@@ -311,13 +309,6 @@ class WordNet:
         if moving:  # a word that may name a living being or a vehicle is classed as the most careful of them
             return max(moving, key=lambda c: CAREFUL_RANK[c])
         return classes[common[0]]  # otherwise its most frequent physical sense
-
-
-def _written_lower(sense: Any, key: str) -> bool:
-    """Whether the sense names the word (``key``, underscores for spaces) in lower case: a common
-    noun, not a name ("Paddy", "Pole", "Crane" the poet)."""
-    names = [lm.name() for lm in sense.lemmas() if lm.name().lower() == key.lower()]
-    return bool(names) and names[0] == names[0].lower()
 
 
 def _hypernyms(sense: Any) -> set[str]:

@@ -505,8 +505,10 @@ class MentionFinder:
     def _without_collectives(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
         """Drop a collective noun that counts what follows its "of" ("a family of geese", "a mob of
         kangaroos", "a crew of workers"): the counted mention says what is there, while the
-        collective's own classes (a family, a mob: people) would misname it. Only a WordNet
-        noun whose most frequent sense is a group ("members of ..." are people), only when a
+        collective's own classes (a family, a mob: people) would misname it. Only a WordNet noun,
+        or a KB one counting animals ("a crowd of geese", "a team of horses"; "a crowd of
+        children" stays the KB's crowd, a group of people), whose most frequent WordNet sense is a
+        group ("members of ..." are people), only when a
         person or an animal follows within :data:`COLLECTIVE_GAP` words of plural determiners,
         numbers or adjectives, and heads its noun phrase ("a family of four having a picnic",
         "the crew of a fishing boat", "the crew of the cattle truck", "members of the pony club"
@@ -514,7 +516,8 @@ class MentionFinder:
         out: list[Found] = []
         for k, m in enumerate(mentions):
             nxt = mentions[k + 1] if k + 1 < len(mentions) else None
-            if (m.source == "wordnet" and nxt is not None and nxt.word_class in _COUNTED
+            if (nxt is not None and (nxt.word_class in _COUNTED if m.source == "wordnet"
+                                     else m.source == "kb" and nxt.word_class == "animal")
                     and m.end < len(words) and words[m.end] == "of"
                     and 0 <= nxt.start - m.end - 1 <= COLLECTIVE_GAP
                     and self._counting_gap(words[m.end + 1 : nxt.start])

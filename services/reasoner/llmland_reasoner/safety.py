@@ -39,7 +39,7 @@ from .kb import MIN_BUFFER_M, KbEntry, KnowledgeBase
 from .lexicon import CLASS_WORDS, WordNet
 from .mention_cache import CachedGrounding, MentionCache, MentionKey
 from .mentions import RIDDEN_IDS, Found, tokenize
-from .words import FUNCTION_WORDS
+from .words import DETERMINERS, FUNCTION_WORDS
 
 #: Words after the mention's first word that ground it (BLIP: "car parked on the").
 WINDOW_WORDS = 4
@@ -218,18 +218,21 @@ def _ridden(person: Found, mentions: Sequence[Found]) -> bool:
 
 #: Words that put a person named right after a two-wheeler on it ("a motorbike with two riders").
 CARRYING_CUES = frozenset({"with", "carrying"})
-#: Verbs that put the person named before them on a two-wheeler none names ("a man cycling down
-#: the road", "a family biking along the canal"), unless they qualify the noun after them ("a
-#: cycling path").
+#: Verbs that put the person named before them on a two-wheeler ("a man cycling down the road",
+#: "a family biking along the canal"), where they are verbs (:func:`_cycling`).
 CYCLING_VERBS = frozenset(
     "cycling cycled bicycling biking biked pedalling pedaling pedalled pedaled motorcycling motorbiking".split())
+#: Words after which a cycling word is a noun ("watching the cycling", "talking about cycling").
+NOUN_OPENERS = DETERMINERS | frozenset("about of for from after before during into like to".split())
 
 
 def _carried(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
     """Whether the person is named right after a two-wheeler (neither negated nor parked right
-    there) that names what they ride ("a motorbike rider", "a moped driver", "an e-bike courier")
-    or that :data:`CARRYING_CUES` say carries them, at most :data:`RIDE_REACH` words on ("a
-    motorbike with two riders", "a scooter carrying a woman"), no other thing named between."""
+    there): right after it, the person noun is named by it ("a motorbike rider", "a moped driver",
+    "a bicycle courier"; also "a motorcycle officer", "a bicycle repairman", read as its rider:
+    the larger buffer), or :data:`CARRYING_CUES` say it carries them, at most :data:`RIDE_REACH`
+    words on ("a motorbike with two riders", "a scooter carrying a woman"), no other thing named
+    between."""
     prev = max((m for m in mentions if m.end <= person.start), key=lambda m: m.end, default=None)
     if prev is None or not _rideable(words, prev):
         return False
@@ -238,9 +241,11 @@ def _carried(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
 
 
 def _cycling(words: Sequence[str], j: int, mentions: Sequence[Found]) -> bool:
-    """Whether ``words[j]`` is a :data:`CYCLING_VERBS` verb, not a modifier of a thing named right
-    after it."""
-    return words[j] in CYCLING_VERBS and not any(m.start == j + 1 for m in mentions)
+    """Whether ``words[j]`` is a :data:`CYCLING_VERBS` verb: not a noun (after a
+    :data:`NOUN_OPENERS` word: "watching the cycling") nor a modifier of a thing named right after
+    it ("the cycling path")."""
+    return (words[j] in CYCLING_VERBS and not (j > 0 and words[j - 1] in NOUN_OPENERS)
+            and not any(m.start == j + 1 for m in mentions))
 
 
 def _rideable(words: Sequence[str], m: Found) -> bool:
@@ -256,8 +261,9 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
     :data:`RIDE_REACH` words after it, is a two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated
     nor parked right there ("a man on the sidewalk riding a bicycle"; "a child sitting on a parked
     motorcycle" rides nothing, :data:`PARKED_TWO_WHEELER`), with no other person named from the
-    person to it ("a man next to a boy on a bike": the boy rides it); or a two-wheeler before the
-    person carries them (:func:`_carried`)."""
+    person to it ("a man next to a boy on a bike": the boy rides it); or a cycling verb
+    (:func:`_cycling`) within those words, the first one deciding, with no other person named
+    before it; or a two-wheeler before the person carries them (:func:`_carried`)."""
     if _carried(words, person, mentions):
         return True
     for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):

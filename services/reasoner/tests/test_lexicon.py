@@ -80,12 +80,11 @@ def test_plurals_fold_to_their_lemma(wordnet: WordNet, word: str, lemma: str) ->
     assert wordnet.lemma(word) == lemma
 
 
-@pytest.mark.parametrize(("word", "cls"), [("pole", "object"), ("paddy", "terrain"), ("ram", "animal"),
-                                         ("ottoman", "object"), ("blimp", "vehicle")])
-def test_a_sense_named_only_capitalised_is_a_name(wordnet: WordNet, word: str, cls: str) -> None:
-    """"Pole", "Paddy" (people), "RAM", "Ottoman" (a Turk), "Blimp" (a pompous man) are names: the
-    word's class comes from its common-noun senses, as :meth:`WordNet.senses` reads them ("a pole"
-    was a person, "a water buffalo in a paddy" a person)."""
+@pytest.mark.parametrize(("word", "cls"), [("siamese", "animal"), ("jersey", "animal"), ("brownie", "person")])
+def test_a_sense_named_only_capitalised_still_counts(wordnet: WordNet, word: str, cls: str) -> None:
+    """Captions come lower case: "a siamese on the sofa", "two jerseys grazing", "a group of
+    brownies hiking" may mean the cat, the cows, the girl scouts, so those senses keep their care
+    (skipping them was tried: a bench, a bench, a dirt path)."""
     assert wordnet.noun_class(word) == cls
 
 

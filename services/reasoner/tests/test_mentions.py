@@ -39,6 +39,9 @@ def present(found: list[Found]) -> dict[str, str]:
     # ... and after "of": what a quantity counts (was no mention: "a pair of birdwatchers with
     # binoculars" was the binoculars, "a group of quokkas on a hill" the hill, 0 m)
     ("a pair of quokkas on a boardwalk", {"quokkas": "unknown", "boardwalk": "terrain"}),
+    # a KB collective counts what follows its "of" too (were the KB's crowd, a person)
+    ("a crowd of geese on the lawn", {"geese": "animal", "lawn": "terrain"}),
+    ("a team of horses pulling a wagon", {"horses": "animal", "wagon": "vehicle"}),
     ("a group of birdwatchers on a hill", {"group": "terrain", "birdwatchers": "unknown", "hill": "terrain"}),
     # a bicycle naming a person stays named: what they ride ("ebike" was dropped as a qualifier)
     ("an ebike rider at a crosswalk", {"ebike": "structure", "rider": "person", "crosswalk": "terrain"}),

@@ -264,3 +264,25 @@ def test_a_trailer_is_a_vehicle(extractor: SpecExtractor, caption: str, dynamic:
 def test_an_unknown_word_a_quantity_counts_is_careful(extractor: SpecExtractor, caption: str) -> None:
     spec = extractor.extract(caption)  # was the boardwalk, the hill: 0 m
     assert spec.is_dynamic and spec.buffer_m >= 5.0, spec
+
+
+@pytest.mark.parametrize("caption", ["a soccer team practicing on a field", "a baseball team on the field"])
+def test_a_team_is_people(extractor: SpecExtractor, caption: str) -> None:
+    """KB 1.3.2: a sports team is a KB person entry. WordNet's team of people is an abstraction, so
+    its only concrete sense, draft animals, made "a soccer team" an animal: 4 m, and not a possible
+    person."""
+    spec = extractor.extract(caption)
+    assert spec.is_human and spec.is_dynamic and spec.buffer_m >= 3.0, spec
+
+
+@pytest.mark.parametrize("caption", ["people watching the cycling", "a man talking about cycling"])
+def test_cycling_as_a_noun_puts_no_one_on_a_bicycle(extractor: SpecExtractor, caption: str) -> None:
+    spec = extractor.extract(caption)
+    assert spec.is_human and spec.label != "cyclist", spec
+
+
+def test_a_crowd_counting_people_stays_the_crowd(extractor: SpecExtractor) -> None:
+    """A KB collective gives way to the animals it counts ("a crowd of geese"), not to people: "a
+    crowd of children" keeps the crowd's 3.5 m floor (a child's is 2.5 m)."""
+    spec = extractor.extract("a crowd of children in a playground")
+    assert spec.label == "crowd" and spec.z_min >= 3.5, spec
