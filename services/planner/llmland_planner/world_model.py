@@ -363,7 +363,10 @@ class WorldModel:
             # above what the side view saw, the thing may reach wider (a crown over its trunk); a
             # guess about a still thing, it yields to the landing disc whatever the class
             reach = self._clear_of_disc(centre, half, max(buffer_m, s.unseen_top_reach_m))
-            if reach > buffer_m:
+            # nothing above the seen top to guard when the keep-out ends there (a 0 m buffer):
+            # the box would be flat, or upside down by a rounding (a tick failed on one, Exp 2
+            # urban 12 at 893c7dc)
+            if reach > buffer_m and top > float(tr.hi_m[2]):
                 lo, hi = centre - half - reach, centre + half + reach
                 boxes.append(UnsafeRegion(np.array([lo[0], lo[1], float(tr.hi_m[2])]), np.array([hi[0], hi[1], top]),
                                           tr.track_id, v.label, v.dynamic, reach, v.z_min, {UNSEEN_TOP: 1.0}))

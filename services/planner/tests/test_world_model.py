@@ -1,5 +1,7 @@
 """Semantic unsafe regions: specs released at stamp + latency, conservative until then."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from llmland_planner.regions import UNSEEN_TOP
@@ -570,3 +572,20 @@ def test_a_later_spec_of_the_rock_beside_someone_does_not_undo_their_person_read
     wm2.on_spec(rock_at(5.05, 1.0))
     wm2.release_specs(1.0)
     assert persons(wm2, 1.0) == []
+
+
+@pytest.mark.parametrize("ground_m", [0.0, 0.3, -0.7])
+def test_a_still_thing_cut_at_the_top_with_no_buffer_gets_no_flat_box(ground_m: float) -> None:
+    """The box above a view cut at the top spans from the seen top to the keep-out's top; with a
+    0 m buffer they coincide, and a rounding once put the box's top below its bottom: the region
+    raised and the planner's tick failed (Exp 2 urban 12 at 893c7dc, a 300 s stall of the sim)."""
+    lo, hi = np.array([28.4, -13.3, ground_m]), np.array([34.49305061, 4.48223404, 11.47499904])
+    blob = replace(_wall_blob(list(lo), list(hi)), touches_top=True, touches_border=True)
+    for z_min in (0.0, 11.47499904):
+        wm = WorldModel(PlannerSettings(), "llm-land")
+        wm.tracker.update([blob], 0.0)
+        spec = SafetySpec(is_dynamic=False, is_human=False, z_min=z_min, buffer_m=0.0, label="wall", source="rag")
+        wm.on_spec(SafetySpecMessage(stamp=0.0, scene=spec, latency_ms=0.0, objects=[
+            ObjectSpec(obj_id="b0", centroid_m=tuple((lo + hi) / 2), size_m=tuple(hi - lo), spec=spec)]))
+        for box in _regions(wm, 0.0):
+            assert box.hi[2] > box.lo[2], box
