@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from llmland_schemas.arrays import FloatArray
@@ -65,9 +66,29 @@ class ModelParams:
         return np.array([0.0, 0.0, 0.0, self.hover_thrust_n])
 
 
+@lru_cache(maxsize=64)
+def _jacobian_templates(m: int, drag_hex: str) -> tuple[FloatArray, FloatArray]:
+    """The state-independent entries of ``(∂f/∂x, ∂f/∂u)`` for a batch of ``m``: ``ṗ = v``, the drag
+    (keyed by ``float.hex``, which tells ``-0.0`` from ``0.0``), ``φ̇`` from ``p``. Read-only:
+    callers copy them."""
+    jac_a = np.zeros((m, NX, NX))
+    jac_b = np.zeros((m, NX, NU))
+    idx = np.arange(3)
+    jac_a[:, idx, idx + 3] = 1.0
+    jac_a[:, idx + 3, idx + 3] = -float.fromhex(drag_hex)
+    jac_b[:, 6, 0] = 1.0
+    jac_a.flags.writeable = False
+    jac_b.flags.writeable = False
+    return jac_a, jac_b
+
+
 def _f_and_jac(x: FloatArray, u: FloatArray, params: ModelParams,
                with_jac: bool = True) -> tuple[FloatArray, FloatArray | None, FloatArray | None]:
-    """Batched dynamics and Jacobians; ``x (M, 9)``, ``u (M, 4)`` → ``(M, 9), (M, 9, 9), (M, 9, 4)``."""
+    """Batched dynamics and Jacobians; ``x (M, 9)``, ``u (M, 4)`` → ``(M, 9), (M, 9, 9), (M, 9, 4)``.
+
+    Written entry by entry into preallocated arrays (no stacking, no fancy indexing: half the time
+    of the stacked form, the MPC's linearisation runs it four times a tick), each entry the same
+    operations in the same order as the formulas in the module docstring."""
     m = x.shape[0]
     phi, th, psi = x[:, 6], x[:, 7], x[:, 8]
     wp, wq, wr, thrust = u[:, 0], u[:, 1], u[:, 2], u[:, 3]
@@ -75,31 +96,35 @@ def _f_and_jac(x: FloatArray, u: FloatArray, params: ModelParams,
     st, ct = np.sin(th), np.cos(th)
     sp, cp = np.sin(psi), np.cos(psi)
     tt = st / ct
-    # third column of R = Rz Ry Rx (body z axis in world)
-    ez = np.stack([cp * st * cf + sp * sf, sp * st * cf - cp * sf, ct * cf], axis=1)
+    ez = np.empty((m, 3))  # third column of R = Rz Ry Rx (body z axis in world)
+    ez[:, 0] = cp * st * cf + sp * sf
+    ez[:, 1] = sp * st * cf - cp * sf
+    ez[:, 2] = ct * cf
     a_t = thrust / params.mass_kg
     dx = np.empty((m, NX))
     dx[:, 0:3] = x[:, 3:6]
     dx[:, 3:6] = ez * a_t[:, None] - params.drag_per_s * x[:, 3:6]
     dx[:, 5] -= params.g_mps2
     sq_cr = sf * wq + cf * wr
+    cq_sr = cf * wq - sf * wr
     dx[:, 6] = wp + tt * sq_cr
-    dx[:, 7] = cf * wq - sf * wr
+    dx[:, 7] = cq_sr
     dx[:, 8] = sq_cr / ct
     if not with_jac:
         return dx, None, None
-    jac_a = np.zeros((m, NX, NX))
-    jac_b = np.zeros((m, NX, NU))
-    idx = np.arange(3)
-    jac_a[:, idx, idx + 3] = 1.0
-    jac_a[:, idx + 3, idx + 3] = -params.drag_per_s
-    dez_dphi = np.stack([-cp * st * sf + sp * cf, -sp * st * sf - cp * cf, -ct * sf], axis=1)
-    dez_dth = np.stack([cp * ct * cf, sp * ct * cf, -st * cf], axis=1)
-    dez_dpsi = np.stack([-sp * st * cf + cp * sf, cp * st * cf + sp * sf, np.zeros(m)], axis=1)
-    jac_a[:, 3:6, 6] = dez_dphi * a_t[:, None]
-    jac_a[:, 3:6, 7] = dez_dth * a_t[:, None]
-    jac_a[:, 3:6, 8] = dez_dpsi * a_t[:, None]
-    cq_sr = cf * wq - sf * wr
+    template_a, template_b = _jacobian_templates(m, float(params.drag_per_s).hex())
+    jac_a, jac_b = template_a.copy(), template_b.copy()
+    # ∂(ez · a_t)/∂(φ, θ, ψ)
+    jac_a[:, 3, 6] = (-cp * st * sf + sp * cf) * a_t
+    jac_a[:, 4, 6] = (-sp * st * sf - cp * cf) * a_t
+    jac_a[:, 5, 6] = (-ct * sf) * a_t
+    jac_a[:, 3, 7] = (cp * ct * cf) * a_t
+    jac_a[:, 4, 7] = (sp * ct * cf) * a_t
+    jac_a[:, 5, 7] = (-st * cf) * a_t
+    jac_a[:, 3, 8] = (-sp * st * cf + cp * sf) * a_t
+    jac_a[:, 4, 8] = ez[:, 0] * a_t
+    jac_a[:, 5, 8] = 0.0 * a_t
+    # the Euler-rate map W(φ, θ) · ω
     inv_c2 = 1.0 / (ct * ct)
     jac_a[:, 6, 6] = tt * cq_sr
     jac_a[:, 6, 7] = sq_cr * inv_c2
@@ -107,7 +132,6 @@ def _f_and_jac(x: FloatArray, u: FloatArray, params: ModelParams,
     jac_a[:, 8, 6] = cq_sr / ct
     jac_a[:, 8, 7] = sq_cr * st * inv_c2
     jac_b[:, 3:6, 3] = ez / params.mass_kg
-    jac_b[:, 6, 0] = 1.0
     jac_b[:, 6, 1] = tt * sf
     jac_b[:, 6, 2] = tt * cf
     jac_b[:, 7, 1] = cf

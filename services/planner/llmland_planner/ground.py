@@ -159,9 +159,12 @@ class GroundMap:
     def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
         """Ground height (m) under world points (vectorised over equal shapes), committed points only."""
         xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-        finite = np.isfinite(xa) & np.isfinite(ya)
-        i, j, inside = self._cells(np.where(finite, xa, 0.0), np.where(finite, ya, 0.0))
-        out = np.full(xa.shape, self.centre[2])
-        ok = inside & finite
-        out[ok] = self._ground[i[ok], j[ok]]
-        return out
+        # cell indices as floats, tested before any cast (a depth frame's points: one pass each);
+        # NaN fails every comparison and ±inf one of them, so they are outside and take the
+        # target's height
+        with np.errstate(invalid="ignore"):  # inf - inf in the index of a point that is outside
+            fi = np.floor((xa - self.origin[0]) / self.cell)
+            fj = np.floor((ya - self.origin[1]) / self.cell)
+            ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
+            flat = np.where(ok, fi * self.n + fj, 0.0).astype(np.intp)  # row-major cell index (exact in float)
+        return np.where(ok, self._ground.ravel().take(flat), self.centre[2])

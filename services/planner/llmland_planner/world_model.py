@@ -33,7 +33,7 @@ import math
 import numpy as np
 from llmland_schemas import PERSON_HARD_LIMIT_M, SEMANTIC_METHODS, CameraIntrinsics, SafetySpec, SafetySpecMessage
 from llmland_schemas.arrays import FloatArray
-from llmland_schemas.depth import Blob, backproject, find_blobs
+from llmland_schemas.depth import Blob, backproject_planes, find_blobs
 from llmland_schemas.frames import CameraFrame
 
 from .ground import GroundMap, ReachFloor
@@ -134,13 +134,15 @@ class WorldModel:
         down = frame.header.camera == "down"
         stride, min_points = ((s.down_blob_stride, s.down_blob_min_points) if down
                               else (s.blob_stride, s.blob_min_points))
-        pts = backproject(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride)
+        planes = backproject_planes(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride)
         if self.ground is not None:  # the same ground-point density whatever the camera's stride
             step = max(1, GROUND_POINT_STRIDE * s.blob_stride // stride)
-            self.ground.stage(frame.header.stamp, frame.header.camera, pts[::step, ::step])
+            self.ground.stage(frame.header.stamp, frame.header.camera,
+                              np.moveaxis(planes[:, ::step, ::step], 0, -1))
         blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=stride,
                            min_points=min_points, max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m,
-                           points_world=pts, ground_height_fn=self.ground.height if self.ground is not None else None)
+                           points_planes=planes,
+                           ground_height_fn=self.ground.height if self.ground is not None else None)
         view = (blobs, frustum_fn(frame, s.max_range_m), frame)
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
 

@@ -77,3 +77,16 @@ def test_tilt_direction_follows_conventions() -> None:
     assert f(x, prm.u_hover, prm)[3] > 0
     x[7], x[6] = 0.0, 0.2
     assert f(x, prm.u_hover, prm)[4] < 0
+
+
+def test_a_jacobian_written_by_a_caller_leaves_the_next_call_alone() -> None:
+    """The Jacobians start from a cached template of their constant entries: a caller writing into
+    one batch's result must not change another's (the MPC keeps and scales them)."""
+    xs = np.stack([_random_point()[0] for _ in range(3)])
+    us = np.stack([_random_point()[1] for _ in range(3)])
+    a1, b1 = jacobians(xs, us, PRM)
+    a1[:] = np.nan
+    b1[:] = np.nan
+    a2, b2 = jacobians(xs, us, PRM)
+    assert np.all(np.isfinite(a2)) and np.all(np.isfinite(b2))
+    assert np.all(a2[:, [0, 1, 2], [3, 4, 5]] == 1.0) and np.all(b2[:, 6, 0] == 1.0)

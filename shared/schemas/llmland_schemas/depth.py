@@ -77,7 +77,15 @@ def backproject(
     Subsampled pixel ``[i, j]`` is full-resolution pixel ``(u, v) = (j * stride, i * stride)``.
     Points are NaN where the depth is invalid (non-finite or ``<= 0``).
     """
-    return _interleaved(_backproject_planar(depth_m, intrinsics, T_world_camera, stride))
+    return _interleaved(backproject_planes(depth_m, intrinsics, T_world_camera, stride))
+
+
+def backproject_planes(
+    depth_m: NDArray[np.floating], intrinsics: CameraIntrinsics, T_world_camera: NDArray[np.floating], stride: int = 2
+) -> FloatArray:
+    """:func:`backproject` as three planes: (H, W) depth -> (3, ceil(H/s), ceil(W/s)) float64 (world
+    x, y, z), the layout :func:`find_blobs` works in (``points_planes``); the same bits."""
+    return _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
 
 
 def _backproject_planar(
@@ -184,6 +192,7 @@ def find_blobs(
     cluster_gap_m: float = 0.6,
     ground_height_fn: GroundHeightFn | None = None,
     points_world: FloatArray | None = None,
+    points_planes: FloatArray | None = None,
 ) -> list[Blob]:
     """Cluster the non-ground points of a depth image into obstacles.
 
@@ -193,14 +202,18 @@ def find_blobs(
     ``cluster_gap_m``. Clusters with fewer than ``min_points`` subsampled points are dropped.
     Returns blobs sorted by decreasing ``n_points`` (``blob_id`` is the index in that list).
     ``points_world``: this image's :func:`backproject` with the same ``stride``, when the
-    caller already has it. Note the neighbour spacing grows with range (``stride * range / fx``): keep
-    ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
+    caller already has it; ``points_planes``: its :func:`backproject_planes` (no copy); not
+    both (``ValueError``). Note the neighbour spacing grows with range (``stride * range / fx``):
+    keep ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
     """
-    if points_world is None:
-        planes = _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
-        pts = _interleaved(planes)
+    if points_planes is not None and points_world is not None:
+        raise ValueError("give points_world or points_planes, not both")
+    if points_planes is not None:
+        planes = points_planes
+    elif points_world is not None:
+        planes = _planes(points_world)
     else:
-        pts, planes = points_world, _planes(points_world)
+        planes = _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
     cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
     with np.errstate(invalid="ignore"):
         near = _squared_distance(planes, cam[:, None, None]) <= max_range_m * max_range_m
@@ -213,8 +226,11 @@ def find_blobs(
     sel, lab = _kept_cluster_points(labels, n, min_points)
     if sel.size == 0:
         return []
-    blobs = _blobs(pts.reshape(-1, 3)[sel], np.divmod(sel, labels.shape[1]), lab, stride, np.shape(depth_m),
-                   ground_height_fn)
+    if points_world is not None:  # as given (its dtype too)
+        points = np.asarray(points_world).reshape(-1, 3)[sel]
+    else:  # (N, 3): only the kept clusters' points
+        points = np.ascontiguousarray(planes.reshape(3, -1)[:, sel].T)
+    blobs = _blobs(points, np.divmod(sel, labels.shape[1]), lab, stride, np.shape(depth_m), ground_height_fn)
     log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)
     return blobs
 

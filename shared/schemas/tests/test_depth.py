@@ -6,8 +6,9 @@ import logging
 import time
 
 import numpy as np
+import pytest
 from llmland_schemas import CameraIntrinsics
-from llmland_schemas.depth import backproject, find_blobs, ground_mask
+from llmland_schemas.depth import backproject, backproject_planes, find_blobs, ground_mask
 
 log = logging.getLogger(__name__)
 
@@ -173,15 +174,19 @@ def test_backproject_is_the_vector_formula_bit_for_bit() -> None:
 
 
 def test_find_blobs_with_or_without_given_points() -> None:
+    """Points given interleaved or as planes (no copy) give the same blobs, bit for bit."""
     depth = raycast(POSE, BOXES)
     pts = backproject(depth, K(), POSE, stride=2)
+    planes = backproject_planes(depth, K(), POSE, stride=2)
+    np.testing.assert_array_equal(np.moveaxis(planes, 0, -1), pts)
     a = find_blobs(depth, K(), POSE, stride=2, min_points=5)
-    b = find_blobs(depth, K(), POSE, stride=2, min_points=5, points_world=pts)
-    assert len(a) == len(b) > 0
-    for x, y in zip(a, b, strict=True):
-        np.testing.assert_array_equal(x.lo_m, y.lo_m)
-        np.testing.assert_array_equal(x.hi_m, y.hi_m)
-        assert x.n_points == y.n_points and x.bbox_px == y.bbox_px
+    for b in (find_blobs(depth, K(), POSE, stride=2, min_points=5, points_world=pts),
+              find_blobs(depth, K(), POSE, stride=2, min_points=5, points_planes=planes)):
+        assert len(a) == len(b) > 0
+        for x, y in zip(a, b, strict=True):
+            for field in ("lo_m", "hi_m", "mean_m", "centroid_m"):
+                np.testing.assert_array_equal(getattr(x, field), getattr(y, field))
+            assert (x.n_points, x.bbox_px, x.footprint_radius_m) == (y.n_points, y.bbox_px, y.footprint_radius_m)
 
 
 def test_squared_distance_sums_in_numpys_order() -> None:
@@ -193,3 +198,10 @@ def test_squared_distance_sums_in_numpys_order() -> None:
     a, b = rng.normal(0.0, 10.0, (50, 40, 3)), rng.normal(0.0, 10.0, (50, 40, 3))
     a[rng.random((50, 40)) < 0.1] = np.nan
     np.testing.assert_array_equal(_squared_distance(_planes(a), _planes(b)), np.sum((a - b) ** 2, axis=-1))
+
+
+def test_find_blobs_takes_one_form_of_given_points() -> None:
+    depth = raycast(POSE, BOXES)
+    with pytest.raises(ValueError, match="not both"):
+        find_blobs(depth, K(), POSE, points_world=backproject(depth, K(), POSE),
+                   points_planes=backproject_planes(depth, K(), POSE))
