@@ -43,6 +43,8 @@ MISSION_WAIT_S = 2.0
 #: frames of an episode whose mission has not arrived yet are kept (at most this many) and
 #: handed over when it does, for the same race
 EARLY_FRAMES_MAX = 8
+#: Spec messages kept for an episode whose mission has not arrived yet (the newest).
+EARLY_SPECS_MAX = 8
 
 
 class PlannerService:
@@ -67,6 +69,7 @@ class PlannerService:
         self._waited_for: str | None = None  # the last unknown episode a state made us wait for
         self._started: deque[str] = deque(maxlen=16)  # episodes started here (never waited for again)
         self._early_frames: list[CameraFrame] = []  # of an episode whose mission is not in yet
+        self._early_specs: list[SafetySpecMessage] = []  # the same for specs
         self.late_inputs = 0
         d = settings.drone_id
         self.cmd_key, self.plan_key = key(d, Topic.COMMAND), key(d, Topic.PLAN)
@@ -92,9 +95,13 @@ class PlannerService:
                 self._started.append(m.episode_id)
                 self._frame_seq, self._spec_stamp = {"forward": -1, "down": -1}, -1.0
                 early, self._early_frames = [f for f in self._early_frames if f.header.episode_id == m.episode_id], []
+                early_specs = [x for x in self._early_specs if x.episode_id == m.episode_id]
+                self._early_specs = []
                 self._inputs.notify_all()
         for frame in early:
             self._take_frame(frame)
+        for msg in early_specs:
+            self._take_spec(msg)
 
     def _on_frame(self, _k: str, frame: CameraFrame) -> None:
         with self._inputs:
@@ -114,11 +121,19 @@ class PlannerService:
             self._inputs.notify_all()
 
     def _on_spec(self, _k: str, msg: SafetySpecMessage) -> None:
-        if msg.episode_id in ("", self.episode_id):
-            self.planner.on_spec(msg)
-            with self._inputs:
-                self._spec_stamp = max(self._spec_stamp, msg.stamp)
-                self._inputs.notify_all()
+        with self._inputs:
+            if msg.episode_id not in ("", self.episode_id):
+                # its mission may be on the way (on a loaded machine the first spec can come first:
+                # dropped, every tick waited 10 s for it until the next one, Exp 2 forest_edge 38)
+                self._early_specs = (self._early_specs + [msg])[-EARLY_SPECS_MAX:]
+                return
+        self._take_spec(msg)
+
+    def _take_spec(self, msg: SafetySpecMessage) -> None:
+        self.planner.on_spec(msg)
+        with self._inputs:
+            self._spec_stamp = max(self._spec_stamp, msg.stamp)
+            self._inputs.notify_all()
 
     def _wait_inputs(self, st: VehicleState) -> None:
         """Lockstep: wait until the frame and specs this state refers to are in."""

@@ -15,6 +15,8 @@ from llmland_schemas import (
     CameraIntrinsics,
     ControlCommand,
     MissionGoal,
+    SafetySpec,
+    SafetySpecMessage,
     Topic,
     VehicleState,
     key,
@@ -96,5 +98,27 @@ def test_a_leftover_state_of_an_ended_episode_costs_no_wait() -> None:
             quat_xyzw=(0.0, 0.0, 0.0, 1.0), euler_rpy_rad=(0.0, 0.0, 0.0), body_rates_rps=(0.0, 0.0, 0.0),
             episode_id="e1"))
         assert time.monotonic() - t0 < 0.5 * MISSION_WAIT_S  # not the wait for a mission to come (loose: CI load)
+    finally:
+        service.close()
+
+
+def test_a_spec_before_its_mission_is_not_lost() -> None:
+    """On a loaded machine the mission can reach the planner after the first spec (the planner was
+    still ending the last episode): a spec dropped as another episode's left every state that
+    names it waiting 10 s, until the next spec came (Exp 2 forest_edge 38, llm: 90 s of wall)."""
+    bus = _Bus()
+    service = PlannerService(PlannerSettings(), bus)  # type: ignore[arg-type]
+    try:
+        d = "d0"
+        spec = SafetySpec(is_dynamic=True, z_min=3.0, buffer_m=3.0, label="person", source="rag")
+        bus.subs[key(d, Topic.SPEC)]("", SafetySpecMessage(stamp=0.0, episode_id="e1", scene=spec, latency_ms=30.0))
+        bus.subs[key(d, Topic.MISSION)]("", MissionGoal(episode_id="e1", method="llm-land", clock="lockstep",
+                                                        start_m=(0.0, 0.0, 3.0), target_m=(10.0, 0.0, 0.0)))
+        state = VehicleState(stamp=0.02, seq=1, position_m=(0.0, 0.0, 3.0), velocity_mps=(0.0, 0.0, 0.0),
+                             quat_xyzw=(0.0, 0.0, 0.0, 1.0), euler_rpy_rad=(0.0, 0.0, 0.0),
+                             body_rates_rps=(0.0, 0.0, 0.0), episode_id="e1", specs_released_upto_s=0.0)
+        bus.subs[key(d, Topic.STATE)]("", state)
+        assert bus.got.wait(5.0)
+        assert service.late_inputs == 0  # the spec was in: no 10 s wait
     finally:
         service.close()
