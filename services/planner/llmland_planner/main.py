@@ -14,6 +14,7 @@ import threading
 from collections import deque
 
 from llmland_schemas import (
+    ABSTAIN_MODE,
     ControlCommand,
     MissionGoal,
     SafetySpecMessage,
@@ -155,6 +156,17 @@ class PlannerService:
                 self._handle_state(st)
             except Exception:  # a planner bug must not stop the service: the sim's failsafe holds
                 log.exception("planner tick failed")
+                self._abstain(st)
+
+    def _abstain(self, st: VehicleState) -> None:
+        """Say at once that this tick has no command (:data:`ABSTAIN_MODE`), so the sim flies it as a
+        missing one without waiting for it in lockstep (up to 300 s while this service is alive)."""
+        try:
+            self.bus.publish(self.cmd_key, ControlCommand(
+                drone_id=self.settings.drone_id, stamp=st.stamp, seq=st.seq, state_seq=st.seq,
+                body_rates_rps=(0.0, 0.0, 0.0), thrust_n=0.0, mode=ABSTAIN_MODE, source="planner"), express=True)
+        except Exception:
+            log.exception("could not publish the abstention of tick %d", st.seq)
 
     def _known_episode(self, st: VehicleState) -> bool:
         """Whether ``st`` belongs to the episode started here, waiting (once per unknown episode, at

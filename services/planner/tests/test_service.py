@@ -11,6 +11,7 @@ import numpy as np
 from llmland_planner.main import MISSION_WAIT_S, PlannerService
 from llmland_planner.settings import PlannerSettings
 from llmland_schemas import (
+    ABSTAIN_MODE,
     CameraFrameHeader,
     CameraIntrinsics,
     ControlCommand,
@@ -120,5 +121,30 @@ def test_a_spec_before_its_mission_is_not_lost() -> None:
         bus.subs[key(d, Topic.STATE)]("", state)
         assert bus.got.wait(5.0)
         assert service.late_inputs == 0  # the spec was in: no 10 s wait
+    finally:
+        service.close()
+
+
+def test_a_tick_that_raises_abstains_at_once() -> None:
+    """A tick that raised answered nothing, and in lockstep the sim waited up to 300 s for a planner
+    whose liveliness token was up (Exp 2 urban 12, llm, at 893c7dc). It now says so: a command of
+    mode ``abstain`` for that state, which the sim flies as a missing one."""
+    bus = _Bus()
+    service = PlannerService(PlannerSettings(), bus)  # type: ignore[arg-type]
+    try:
+        def broken(_st: VehicleState) -> None:
+            raise ValueError("region 't45': hi below lo")
+
+        service.planner.tick = broken  # type: ignore[method-assign,assignment]
+        d = "d0"
+        bus.subs[key(d, Topic.MISSION)]("", MissionGoal(episode_id="e1", method="baseline", clock="lockstep",
+                                                        start_m=(0.0, 0.0, 3.0), target_m=(10.0, 0.0, 0.0)))
+        state = VehicleState(stamp=0.02, seq=4, position_m=(0.0, 0.0, 3.0), velocity_mps=(0.0, 0.0, 0.0),
+                             quat_xyzw=(0.0, 0.0, 0.0, 1.0), euler_rpy_rad=(0.0, 0.0, 0.0),
+                             body_rates_rps=(0.0, 0.0, 0.0), episode_id="e1")
+        bus.subs[key(d, Topic.STATE)]("", state)
+        assert bus.got.wait(5.0)
+        (cmd,) = [m for m in bus.published if isinstance(m, ControlCommand)]
+        assert cmd.state_seq == 4 and cmd.mode == ABSTAIN_MODE
     finally:
         service.close()

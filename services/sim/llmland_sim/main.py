@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from llmland_schemas import (
+    ABSTAIN_MODE,
     ControlCommand,
     MissionGoal,
     PlanSnapshot,
@@ -255,7 +256,8 @@ class SimService:
         sim = self.sim
         if mission.clock != "lockstep":
             time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
-            return self.commands.take_latest()
+            latest = self.commands.take_latest()
+            return None if latest is not None and latest.mode == ABSTAIN_MODE else latest
         # After a miss the planner is presumed dead: wait only briefly until it answers again,
         # so a dead planner costs the vehicle-side failsafe, not 10 s of wall time per tick.
         with self.walls.time("planner_wait"):
@@ -264,6 +266,8 @@ class SimService:
             else:
                 cmd = self.commands.wait_for(sim.seq, DEAD_PLANNER_WAIT_S)
         self._planner_ok = cmd is not None
+        if cmd is not None and cmd.mode == ABSTAIN_MODE:
+            cmd = None  # a live planner with no command for this tick: flown as a missing one, at once
         if cmd is None and sim.score is not None:
             sim.score.observe_deadline_miss()
         return cmd

@@ -4,10 +4,11 @@ state names them (the planner computes while the sim renders)."""
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
-from llmland_schemas import ControlCommand, EpisodeResult, MissionGoal, Topic, VehicleState, key
+from llmland_schemas import ABSTAIN_MODE, ControlCommand, EpisodeResult, MissionGoal, Topic, VehicleState, key
 from llmland_schemas.frames import decode_frame
 from llmland_sim.main import SimService
 from llmland_sim.settings import SimSettings
@@ -112,9 +113,9 @@ class _SlowPlannerBus(_LoopbackBus):
         super().publish(k, msg, express=express)
 
 
-def _fly_with(bus: _SlowPlannerBus) -> EpisodeResult:
+def _fly_with(bus: _LoopbackBus, lockstep_timeout_s: float = 0.05, lockstep_max_wait_s: float = 5.0) -> EpisodeResult:
     settings = SimSettings(renderer="tiny", camera_width=64, camera_height=64, down_camera_size=64,
-                           lockstep_timeout_s=0.05, lockstep_max_wait_s=5.0)
+                           lockstep_timeout_s=lockstep_timeout_s, lockstep_max_wait_s=lockstep_max_wait_s)
     service = SimService(settings, bus, threading.Event())  # type: ignore[arg-type]
     try:
         service.run_episode(MissionGoal(episode_id="e", world="open_field", seed=1, method="baseline",
@@ -135,3 +136,33 @@ def test_a_slow_tick_of_a_live_planner_is_waited_for_not_flown_by_the_failsafe()
     assert result.commands_missing == 0 and live.alive_queries >= 1
     gone = _SlowPlannerBus(slow_seq=3, delay_s=0.3, planner_alive=False)
     assert _fly_with(gone).commands_missing >= 1
+
+
+class _AbstainingPlannerBus(_LoopbackBus):
+    """A live planner whose tick ``seq`` raised: it answers that state with an abstention."""
+
+    def __init__(self, seq: int) -> None:
+        super().__init__()
+        self.seq = seq
+
+    def alive(self, selector: str, timeout_s: float = 1.0) -> set[str]:
+        return {selector}
+
+    def publish(self, k: str, msg: BaseModel, *, express: bool = False) -> None:
+        if isinstance(msg, VehicleState) and msg.seq == self.seq:
+            self.log.append((k, msg))
+            self._subs[key("d0", Topic.COMMAND)](k, ControlCommand(
+                stamp=msg.stamp, seq=msg.seq, state_seq=msg.seq, body_rates_rps=(0.0, 0.0, 0.0), thrust_n=0.0,
+                mode=ABSTAIN_MODE, source="test"))
+            return
+        super().publish(k, msg, express=express)
+
+
+def test_an_abstention_is_flown_as_a_missing_command_at_once() -> None:
+    """A planner tick that raised answered nothing, and the sim waited its 300 s for a live planner
+    (Exp 2 urban 12, llm, at 893c7dc: 355 s of wall). The planner now abstains: that tick is flown
+    as a missing command (the last one held), never as the abstention's zero thrust, and at once."""
+    started = time.perf_counter()
+    result = _fly_with(_AbstainingPlannerBus(seq=3), lockstep_timeout_s=5.0, lockstep_max_wait_s=300.0)
+    assert result.commands_missing == 1
+    assert time.perf_counter() - started < 4.0  # not one 5 s wait

@@ -17,6 +17,7 @@ from .keys import (
     validate_drone_id,
 )
 from .messages import (
+    ABSTAIN_MODE,
     ANIMAL_BUFFER_M,
     CONSERVATIVE_BUFFER_M,
     CONSERVATIVE_Z_MIN_M,
@@ -55,6 +56,7 @@ from .messages import (
 )
 
 __all__ = [
+    "ABSTAIN_MODE",
     "ANIMAL_BUFFER_M",
     "CONSERVATIVE_BUFFER_M",
     "METHOD_NAMES",

@@ -36,6 +36,11 @@ PERSON_HARD_LIMIT_M = 1.0
 CONSERVATIVE_BUFFER_M = 5.0
 CONSERVATIVE_Z_MIN_M = 5.0
 
+#: :class:`ControlCommand` mode of a planner that has no command for a tick (its tick raised): the
+#: vehicle flies as when a command is missing (the last one held briefly, then its failsafe), at
+#: once rather than after the lockstep wait. Its rates and thrust are not flown.
+ABSTAIN_MODE = "abstain"
+
 Vec3 = tuple[FiniteFloat, FiniteFloat, FiniteFloat]
 Quat = tuple[FiniteFloat, FiniteFloat, FiniteFloat, FiniteFloat]
 NonNegFloat = Annotated[FiniteFloat, Field(ge=0.0)]
@@ -92,7 +97,7 @@ class ControlCommand(Envelope):
     body_rates_rps: Vec3
     thrust_n: NonNegFloat
     state_seq: NonNegativeInt
-    mode: str = "track"  # track | hold | land | fallback | idle | disarm
+    mode: str = "track"  # track | hold | land | fallback | idle | disarm | abstain (ABSTAIN_MODE)
     source: str = "planner"
     solve_ms: NonNegFloat | None = None  # MPC QP solve time of this tick
     tick_ms: NonNegFloat | None = None  # whole controller compute time of this tick
