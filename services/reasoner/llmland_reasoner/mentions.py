@@ -487,10 +487,9 @@ class MentionFinder:
                     continue
                 if nxt.word_class in _LIVING_OR_VEHICLE and unit.text in DEPICTION_MODIFIERS:
                     continue  # "inflatable dinosaur": the pair becomes one depiction below
-                if unit.kb_id in RIDDEN_IDS and nxt.word_class == "person":
-                    pass  # "an e-bike rider", "a bicycle courier": what they ride stays named
-                elif unit.word_class not in _LIVING_OR_VEHICLE or (
-                        unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown")):
+                rides = unit.kb_id in RIDDEN_IDS and nxt.word_class == "person"  # "an e-bike rider": named
+                if not rides and (unit.word_class not in _LIVING_OR_VEHICLE or (
+                        unit.source == "wordnet" and nxt.word_class in (*_LIVING_OR_VEHICLE, "unknown"))):
                     continue  # "tennis court", "aerial view", "cricket player": the last noun is the head
             if unit.word_class == "unknown" and nxt is not None and nxt.start == unit.end:
                 continue  # "arafed man": an unknown word before a noun qualifies it

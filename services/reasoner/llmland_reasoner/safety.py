@@ -266,15 +266,19 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
     before it; or a two-wheeler before the person carries them (:func:`_carried`)."""
     if _carried(words, person, mentions):
         return True
+
+    def someone_else_before(end: int) -> bool:  # another person named from this one to ``end``
+        return any(m.word_class == "person" for m in mentions if person.end <= m.start < end)
+
     for j in range(person.end, min(len(words), person.end + RIDER_TO_CUE_REACH + 1)):
         if _cycling(words, j, mentions):
-            return not any(m.word_class == "person" for m in mentions if person.end <= m.start < j)
+            return not someone_else_before(j)
         if words[j] not in RIDING_CUES:
             continue
         nxt = min((m for m in mentions if m.start > j), key=lambda m: m.start, default=None)
         if nxt is None or nxt.start - j > RIDE_REACH:
             continue
-        if any(m.word_class == "person" for m in mentions if person.end <= m.start <= nxt.start):
+        if someone_else_before(nxt.start + 1):
             return False  # another person comes first: what follows is theirs
         if _rideable(words, nxt):
             return True

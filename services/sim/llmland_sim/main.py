@@ -64,6 +64,12 @@ DEAD_PLANNER_WAIT_S = 0.05
 PLANNER_ALIVE_QUERY_S = 1.0
 
 
+def _flown(cmd: ControlCommand | None) -> ControlCommand | None:
+    """The command to fly: none for an abstention (:data:`ABSTAIN_MODE`, a live planner with no
+    command for this tick), which is then flown as a missing one, at once."""
+    return None if cmd is not None and cmd.mode == ABSTAIN_MODE else cmd
+
+
 class SimService:
     """Runs episodes as missions arrive."""
 
@@ -256,8 +262,7 @@ class SimService:
         sim = self.sim
         if mission.clock != "lockstep":
             time.sleep(max(0.0, wall0 + sim.t_s - time.perf_counter()))
-            latest = self.commands.take_latest()
-            return None if latest is not None and latest.mode == ABSTAIN_MODE else latest
+            return _flown(self.commands.take_latest())
         # After a miss the planner is presumed dead: wait only briefly until it answers again,
         # so a dead planner costs the vehicle-side failsafe, not 10 s of wall time per tick.
         with self.walls.time("planner_wait"):
@@ -266,8 +271,7 @@ class SimService:
             else:
                 cmd = self.commands.wait_for(sim.seq, DEAD_PLANNER_WAIT_S)
         self._planner_ok = cmd is not None
-        if cmd is not None and cmd.mode == ABSTAIN_MODE:
-            cmd = None  # a live planner with no command for this tick: flown as a missing one, at once
+        cmd = _flown(cmd)
         if cmd is None and sim.score is not None:
             sim.score.observe_deadline_miss()
         return cmd

@@ -84,14 +84,7 @@ def backproject_planes(
     depth_m: NDArray[np.floating], intrinsics: CameraIntrinsics, T_world_camera: NDArray[np.floating], stride: int = 2
 ) -> FloatArray:
     """:func:`backproject` as three planes: (H, W) depth -> (3, ceil(H/s), ceil(W/s)) float64 (world
-    x, y, z), the layout :func:`find_blobs` works in (``points_planes``); the same bits."""
-    return _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
-
-
-def _backproject_planar(
-    depth_m: NDArray[np.floating], intrinsics: CameraIntrinsics, T_world_camera: NDArray[np.floating], stride: int
-) -> FloatArray:
-    """:func:`backproject` as three planes: (3, H', W') float64 (world x, y, z), component by
+    x, y, z), the layout :func:`find_blobs` works in (``points_planes``); computed component by
     component (the same operations in the same order as the vector form below, so the same bits)."""
     if stride < 1:
         raise ValueError(f"stride must be >= 1, got {stride}")
@@ -213,7 +206,7 @@ def find_blobs(
     elif points_world is not None:
         planes = _planes(points_world)
     else:
-        planes = _backproject_planar(depth_m, intrinsics, T_world_camera, stride)
+        planes = backproject_planes(depth_m, intrinsics, T_world_camera, stride)
     cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
     with np.errstate(invalid="ignore"):
         near = _squared_distance(planes, cam[:, None, None]) <= max_range_m * max_range_m
