@@ -48,6 +48,9 @@ class KbEntry(BaseModel):
     buffer_m: Metres
     description: Annotated[str, Field(min_length=1, max_length=500)]
     synonyms: list[Annotated[str, Field(min_length=1, max_length=64)]] = []
+    #: Makers of this vehicle ("ford", "john deere"): a make and the model after it name this
+    #: entry ("a ford mustang"; ``makes.py``). Vehicles only; not indexed for retrieval.
+    makes: list[Annotated[str, Field(min_length=1, max_length=64)]] = []
 
     @model_validator(mode="after")
     def _consistent(self) -> KbEntry:
@@ -68,6 +71,8 @@ def category_problems(entry: KbEntry) -> list[str]:
     problems: list[str] = []
     if entry.category == "person" and not entry.is_human:
         problems.append("an entry in category person must have is_human true")
+    if entry.makes and entry.category != "vehicle":
+        problems.append(f"only a vehicle has makes (category is {entry.category})")
     if entry.category != "person" and entry.is_human:
         problems.append(f"only category person may be human (category is {entry.category})")
     if entry.category in LIVING and not entry.is_dynamic:

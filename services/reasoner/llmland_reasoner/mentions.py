@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
 from .lexicon import WordNet
+from .makes import MakeIndex
 from .subjects import DIRECTIONS, OBJECT_OPENERS, with_verb_subjects
 from .words import (
     AUXILIARIES,
@@ -176,6 +177,7 @@ class MentionFinder:
         self._person = self._surface.get(("person",))
         self._crowd = self._surface.get(("crowd",)) or self._person
         self._traffic = self._surface.get(("traffic",))  # the KB entry implied traffic stands for
+        self._make_index = MakeIndex(kb, wordnet, tokenize)
 
     def _lemma_key(self, words: Sequence[str]) -> tuple[str, ...]:
         return (*words[:-1], self.wordnet.lemma(words[-1]))
@@ -188,6 +190,11 @@ class MentionFinder:
             if entry is not None:
                 return n, entry
         return None
+
+    def _names_head(self, words: Sequence[str], i: int) -> bool:
+        """Whether a KB name of a person or a vehicle starts at ``i``."""
+        kb = self._kb_match(words, i)
+        return kb is not None and kb[1].category in ("person", "vehicle")
 
     def _plural_of(self, span: tuple[str, ...]) -> KbEntry | None:
         """A regular plural of a KB name WordNet does not know ("bikers": WordNet 3.0 has no
@@ -314,6 +321,10 @@ class MentionFinder:
             return None
         if words[i] in PERSON_PRONOUNS:
             return self._implied_person(words[i])
+        made = self._make_index.unit(words, i, self._names_head)
+        if made is not None:  # "a ford mustang": the make's vehicle; "a ford truck": the truck
+            n, entry = made
+            return (n, entry.category, "kb", entry.id) if entry is not None else (n, "abstract", "wordnet", None)
         kb = self._kb_match(words, i)
         if kb is None and words[i] in QUANTIFIERS and i + 1 < len(words) and words[i + 1] == "of":
             return None

@@ -198,6 +198,8 @@ TWO_WHEELER_IDS = RIDDEN_IDS | {"motorcycle"}
 #: Words that put a person on the vehicle or bicycle named after them ("a boy on a dirt bike",
 #: "a man riding a moped"): then the person is its rider, whatever the window resembles most.
 RIDING_CUES = frozenset("on riding rides ride rode astride atop aboard onboard mounted".split())
+#: The riding cues that are verbs: what follows is ridden, even a thing no one knows.
+RIDING_VERBS = frozenset("riding rides ride rode".split())
 #: How many words may stand between a riding cue and the two-wheeler it puts the person on
 #: ("on a motorbike", "riding his old dirt bike").
 RIDE_REACH = 3
@@ -248,11 +250,16 @@ def _cycling(words: Sequence[str], j: int, mentions: Sequence[Found]) -> bool:
             and not any(m.start == j + 1 for m in mentions))
 
 
-def _rideable(words: Sequence[str], m: Found) -> bool:
+def _rideable(words: Sequence[str], m: Found, by_verb: bool = False) -> bool:
     """A two-wheeler (:data:`TWO_WHEELER_IDS`) neither negated nor parked right there (its words and
-    one each side, :data:`PARKED_TWO_WHEELER`): someone may be riding it."""
+    one each side, :data:`PARKED_TWO_WHEELER`): someone may be riding it. With ``by_verb`` (a
+    riding verb puts the person on it, :data:`RIDING_VERBS`), also a word neither the KB nor
+    WordNet knows ("a man riding a bicyle": the rider of an unknown thing takes the rider's larger
+    buffer, as an unknown thing takes the careful spec; was a 3 m skateboarder). Not after "on":
+    "a man on the sidewlk" is on a place."""
     beside = words[max(0, m.start - 1) : m.end + 1]
-    return m.kb_id in TWO_WHEELER_IDS and m.status != "negated" and not PARKED_TWO_WHEELER & set(beside)
+    maybe = m.kb_id in TWO_WHEELER_IDS or (by_verb and m.word_class == "unknown")
+    return maybe and m.status != "negated" and not PARKED_TWO_WHEELER & set(beside)
 
 
 def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> bool:
@@ -280,7 +287,7 @@ def _astride(words: Sequence[str], person: Found, mentions: Sequence[Found]) -> 
             continue
         if someone_else_before(nxt.start + 1):
             return False  # another person comes first: what follows is theirs
-        if _rideable(words, nxt):
+        if _rideable(words, nxt, words[j] in RIDING_VERBS):
             return True
     return False
 

@@ -100,6 +100,7 @@ def test_default_path_is_inside_the_package() -> None:
         ({"category": "animal", "is_dynamic": True, "buffer_m": 3.0}, "buffer_m >= 4.0"),
         ({"category": "vehicle", "is_dynamic": False, "buffer_m": 1.0}, "buffer_m >= 5.0"),  # parked ones too
         ({"category": "lookalike", "is_human": True, "is_dynamic": True, "buffer_m": 3.0}, "only category person"),
+        ({"category": "animal", "is_dynamic": True, "buffer_m": 4.0, "makes": ["ford"]}, "only a vehicle has makes"),
     ],
 )
 def test_category_rules_refuse_unsafe_entries_and_say_why(

@@ -1,0 +1,79 @@
+"""Vehicle makes and the model names after them: "a Ford Mustang" is a car, not a horse.
+
+A make names a maker of vehicles (``KbEntry.makes``: Ford, Jeep, John Deere, Cessna); the words
+right after it name its model, whatever they mean alone: the Mustang and the Bronco are horses,
+the Wrangler and the Explorer people, the Ram and the Impala animals in WordNet, so "a Jeep
+Wrangler driving on a trail" was a hiker (3 m) and "a Ford Mustang speeding down the highway" a
+horse (4 m). The make and its model are one mention of the make's vehicle entry.
+
+What stops a model name: a function word, punctuation, a participle or a word used mostly as a
+verb ("a ford mustang *speeding*"), a KB name of a person or a vehicle (that noun is the head: "a
+ford truck", "a toyota driver"), and the nouns for what belongs to a make rather than a model of
+it (:data:`MAKE_ROLES`: "a harley rider", "a honda dealership"). A make with no model after it
+("a harley parked outside", "a man on a yamaha") names its vehicle only when WordNet does not know
+the word in another sense: "a jaguar" and "a ram" stay animals, "a ford" a river crossing, as
+their other rules read them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from .kb import KbEntry, KnowledgeBase
+from .lexicon import WordNet
+from .words import DETERMINERS, FUNCTION_WORDS
+
+#: How many words after a make may name its model ("a tesla model 3", "a toyota land cruiser").
+MODEL_WORDS = 2
+#: Nouns after a make that name what belongs to it, not a model of it: its people, its places,
+#: its signs. The noun is then the head of the phrase ("a harley rider": a person on one).
+MAKE_ROLES = frozenset(
+    "driver drivers rider riders owner owners dealer dealers dealership dealerships mechanic mechanics "
+    "enthusiast enthusiasts fan fans club salesman salesmen factory plant showroom store garage logo "
+    "badge emblem sign ad advert advertisement billboard poster".split()
+)
+
+
+class MakeIndex:
+    """The KB's makes, and the mention a make and its model make together."""
+
+    def __init__(self, kb: KnowledgeBase, wordnet: WordNet, tokenize: Callable[[str], list[str]]) -> None:
+        self.wordnet = wordnet
+        self._makes: dict[tuple[str, ...], KbEntry] = {}
+        for entry in kb.entries:
+            for name in entry.makes:
+                words = tuple(tokenize(name))
+                if words:
+                    self._makes.setdefault(words, entry)
+        self._longest = max((len(k) for k in self._makes), default=0)
+
+    def unit(self, words: Sequence[str], i: int, names_head: Callable[[Sequence[str], int], bool]
+             ) -> tuple[int, KbEntry | None] | None:
+        """The make at ``i`` with its model words: (length, the make's entry); (length, None) for a
+        make that only qualifies the noun after it ("a cat excavator": not the animal); None where
+        no make starts or one alone that WordNet reads otherwise ("a jaguar in the zoo").
+        ``names_head(words, j)``: whether a KB person or vehicle name starts at ``j``."""
+        for n in range(min(self._longest, len(words) - i), 0, -1):
+            entry = self._makes.get(tuple(words[i : i + n]))
+            if entry is None:
+                continue
+            model = 0
+            while model < MODEL_WORDS and i + n + model < len(words) and \
+                    self._model_word(words, i + n + model, names_head):
+                model += 1
+            nxt = words[i + n] if i + n < len(words) else ""
+            if model:
+                return n + model, entry
+            if nxt in MAKE_ROLES or (nxt and names_head(words, i + n)):
+                return n, None  # "a ford truck", "a harley rider": the noun after it is the head
+            known = self.wordnet.is_known(words[i]) if n == 1 else bool(self.wordnet.senses(" ".join(words[i : i + n])))
+            return None if known else (n, entry)
+        return None
+
+    def _model_word(self, words: Sequence[str], j: int, names_head: Callable[[Sequence[str], int], bool]) -> bool:
+        word = words[j]
+        if not word[0].isalnum() or word in FUNCTION_WORDS or word in DETERMINERS or word in MAKE_ROLES:
+            return False
+        if word.isalpha() and (word.endswith(("ing", "ed")) or self.wordnet.mostly_verb(word)):
+            return False  # "a ford mustang speeding", "a jeep parked": the verb, not a model
+        return not names_head(words, j)
