@@ -62,6 +62,8 @@ log = logging.getLogger("llmland.sim")
 DEAD_PLANNER_WAIT_S = 0.05
 #: How long (s) a liveliness query for the planner's token may take.
 PLANNER_ALIVE_QUERY_S = 1.0
+#: lockstep, after a miss: how often (s, wall) to ask again whether the planner's token is up
+PLANNER_RECHECK_S = 1.0
 
 
 def _flown(cmd: ControlCommand | None) -> ControlCommand | None:
@@ -85,6 +87,8 @@ class SimService:
         self.clock: PerceptionClock | None = None
         self.walls = WallTimes()
         self._planner_ok = True
+        self._planner_gone = False  # after a miss: the planner's liveliness token is gone
+        self._gone_checked_at = -math.inf  # when that was last asked (perf_counter, s)
         #: the newest frames' seqs (lockstep: the state names the frames of its tick)
         self._camera_seq: int | None = None
         self._down_seq: int | None = None
@@ -161,7 +165,7 @@ class SimService:
         self.commands.clear()
         sim.reset(mission)
         self.walls = WallTimes()
-        self._planner_ok = True
+        self._planner_ok, self._planner_gone, self._gone_checked_at = True, False, -math.inf
         self._camera_seq = self._down_seq = None
         assert sim.world is not None
         # Tell everyone the resolved mission (start and target filled from the world).
@@ -269,7 +273,7 @@ class SimService:
             if self._planner_ok:
                 cmd = self._wait_for_planner(sim.seq)
             else:
-                cmd = self.commands.wait_for(sim.seq, DEAD_PLANNER_WAIT_S)
+                cmd = self.commands.wait_for(sim.seq, self._missed_planner_wait())
         self._planner_ok = cmd is not None
         cmd = _flown(cmd)
         if cmd is None and sim.score is not None:
@@ -296,6 +300,17 @@ class SimService:
                     or not self._planner_alive()):
                 return cmd
             log.warning("tick %d: no command after %.0f s of wall; the planner is alive, waiting on", seq, waited)
+
+    def _missed_planner_wait(self) -> float:
+        """After a miss, how long (s, wall) a tick waits for its command: :data:`DEAD_PLANNER_WAIT_S`
+        while the planner's liveliness token is up (a hung planner may answer again), nothing once
+        it is gone (asked at most every :data:`PLANNER_RECHECK_S`). A planner killed mid-episode
+        then costs no wall time per tick: its fault run flew 90 s in 246 s of wall at 50 ms a
+        tick. The commands flown are the same either way (a gone planner sends none)."""
+        if time.perf_counter() - self._gone_checked_at >= PLANNER_RECHECK_S:
+            self._planner_gone = not self._planner_alive()
+            self._gone_checked_at = time.perf_counter()  # from the answer: a query may take a while
+        return 0.0 if self._planner_gone else DEAD_PLANNER_WAIT_S
 
     def _planner_alive(self) -> bool:
         """Whether this drone's planner holds its liveliness token (a query, ≤ 1 s)."""
