@@ -10,6 +10,7 @@ import re
 import tempfile
 from pathlib import Path
 
+from llmland_schemas.keys import validate_drone_id
 from llmland_schemas.messages import LATENCY_MODEL_PATTERN, SCENARIO_PATTERN
 
 
@@ -85,7 +86,9 @@ def writable_dir(text: str) -> str:
 
 
 def writable_file(text: str) -> str:
-    """A file whose folder exists (or can be created) and is writable (``--rrd``)."""
+    """A file whose folder exists (or can be created) and is writable, not a folder (``--rrd``)."""
+    if Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder: name a file in it, e.g. {Path(text) / 'landing.rrd'}")
     writable_dir(str(Path(text).parent))  # "." for a bare file name
     return text
 
@@ -95,6 +98,14 @@ def existing_file(text: str) -> str:
     if not Path(text).is_file():
         raise argparse.ArgumentTypeError(f"no such file: {text}")
     return text
+
+
+def drone_id(text: str) -> str:
+    """A drone id usable in bus keys (``--drone-id``)."""
+    try:
+        return validate_drone_id(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def port(text: str) -> int:
@@ -123,6 +134,9 @@ def fault(text: str) -> tuple[str, float]:
     service, _, at = text.partition("@")
     if not service:
         raise argparse.ArgumentTypeError(f"{text!r}: use SERVICE@SIM_S, e.g. reasoner@20")
+    if service == "sim":
+        raise argparse.ArgumentTypeError(f"{text!r}: the sim is the episode (no result would come); "
+                                         "kill vle, reasoner or planner")
     try:
         seconds = float(at or 0.0)
     except ValueError:

@@ -20,6 +20,7 @@ from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
 from llmland_schemas.service import configure_logging, shutdown_event
 
 from .arguments import (
+    drone_id,
     existing_file,
     fault,
     latency_model,
@@ -82,7 +83,11 @@ def cmd_land(args: argparse.Namespace) -> int:
         startup_s = time.perf_counter() - t0
         for service, at in args.kill:
             running.kill_at(service, at)
-        result = running.runner.run(_mission(args, cfg, args.seed, rrd))
+        try:
+            result = running.run(_mission(args, cfg, args.seed, rrd))
+        except (RuntimeError, TimeoutError) as exc:  # the sim died, or no result in the wall limit
+            log.error("%s", exc)
+            return 1
     sys.stderr.write(summary_line(result, startup_s) + "\n")
     sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
@@ -103,7 +108,7 @@ def cmd_trials(args: argparse.Namespace) -> int:
     cfg = _config(args)
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
         for seed in args.seeds:
-            r = running.runner.run(_mission(args, cfg, seed))
+            r = running.run(_mission(args, cfg, seed))
             rows.append(r)
             append_row(csv_path, trial_row(Trial(args.world, args.method, seed, latency_model=args.latency_model),
                                            r, None))
@@ -135,8 +140,9 @@ def cmd_experiment(args: argparse.Namespace) -> int:
             args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
             worlds=worlds, latency_model=args.latency_model, specs=args.specs,
             ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
-            resume=args.resume, log_level=args.service_log_level, machine=machine()["machine"])
-    except ValueError as exc:  # a --resume that would mix two ways of flying
+            resume=args.resume, overwrite=args.overwrite, log_level=args.service_log_level,
+            machine=machine()["machine"])
+    except ValueError as exc:  # a --resume that would mix two ways of flying, an earlier run in OUT
         raise SystemExit(f"llmland experiment: {exc}") from exc
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")
     errored, missing = summary["errored_trials"], summary["missing_trials"]
@@ -253,7 +259,7 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", type=scenario, default=None,
                    help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
                         "final descent starts)")
-    p.add_argument("--drone-id", default="d0")
+    p.add_argument("--drone-id", type=drone_id, default="d0")
     p.add_argument("--port", type=port, default=0, help="bus port (default: a free one)")
 
 
@@ -313,7 +319,10 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
     exp.add_argument("--timeout", type=positive_seconds, default=90.0,
                      help="episode time limit (sim seconds; default 90, the paper's; a landing takes 20-60 s)")
     exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
-    exp.add_argument("--resume", action="store_true", help="skip the trials already in OUT/trials.csv")
+    again = exp.add_mutually_exclusive_group()
+    again.add_argument("--resume", action="store_true", help="skip the trials already in OUT/trials.csv")
+    again.add_argument("--overwrite", action="store_true",
+                       help="an OUT that holds an earlier run: remove its results, plots, traces and logs first")
     exp.add_argument("--out", type=writable_dir, required=True, help="results folder")
     exp.set_defaults(func=cmd_experiment)
 
@@ -322,7 +331,7 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
-    up.add_argument("--drone-id", default="d0", help="the drone's id (one drone)")
+    up.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
     up.add_argument("--drones", type=int, default=0, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
     up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
@@ -337,7 +346,7 @@ def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
     mission.add_argument("--seed", type=non_negative_int, required=True)
     mission.add_argument("--method", choices=METHODS, default="llm-land",
                          help="must match the running services (llm/llm-land need the VLE and the reasoner)")
-    mission.add_argument("--drone-id", default="d0")
+    mission.add_argument("--drone-id", type=drone_id, default="d0")
     mission.add_argument("--connect", default=None,
                          help=f"comma-separated endpoints of the running stack or a router (client mode; default "
                               f"ZENOH_CONNECT or {DEFAULT_ENDPOINT}; a tls/ endpoint reads ZENOH_TLS_ROOT_CA, "

@@ -6,6 +6,7 @@ import logging
 import threading
 import time
 import uuid
+from collections.abc import Callable
 
 from llmland_schemas import EpisodeResult, MissionGoal, Topic, VehicleState, key
 from llmland_schemas.bus import Bus
@@ -51,20 +52,28 @@ class EpisodeRunner:
         if self._aborted:
             raise RuntimeError("episode aborted")
 
-    def run(self, mission: MissionGoal, wall_timeout_s: float | None = None) -> EpisodeResult:
-        """Start ``mission`` (re-sent until the sim answers) and wait for its result."""
+    def run(self, mission: MissionGoal, wall_timeout_s: float | None = None,
+            watch: Callable[[], None] | None = None) -> EpisodeResult:
+        """Start ``mission`` (re-sent until the sim answers) and wait for its result.
+
+        ``watch``: called about once a second while waiting; what it raises ends the wait (a
+        stack's check that its simulator is still running: :meth:`~.stacks.RunningStack.watch`).
+        """
         mission_key = key(self.drone_id, Topic.MISSION)
         wall_timeout_s = wall_timeout_s or max(120.0, 20.0 * mission.timeout_s)
         deadline = time.monotonic() + wall_timeout_s
+        check = watch or (lambda: None)
         with self._cond:
             while mission.episode_id not in self._started and mission.episode_id not in self._results:
                 self._check_aborted()
+                check()
                 self.bus.publish(mission_key, mission)
                 if time.monotonic() > deadline:
                     raise TimeoutError(f"the sim never started episode {mission.episode_id}")
                 self._cond.wait(0.5)
             while mission.episode_id not in self._results:
                 self._check_aborted()
+                check()
                 left = deadline - time.monotonic()
                 if left <= 0:
                     self.bus.publish(mission_key, mission.model_copy(update={"command": "stop"}))

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Literal
 
 import psutil
-from llmland_schemas import SEMANTIC_METHODS, MissionGoal, Topic, VehicleState, key
+from llmland_schemas import SEMANTIC_METHODS, EpisodeResult, MissionGoal, Topic, VehicleState, key
 from llmland_schemas.bus import Bus
 
 from .episodes import EpisodeRunner, new_episode_id
@@ -54,7 +54,8 @@ class StackConfig:
         return names
 
     def env(self) -> dict[str, str]:
-        env = {"LLMLAND_REASONER_HTTP_PORT": str(free_port())}
+        # a run flies the KB as shipped, not the entries someone added through the API on this machine
+        env = {"LLMLAND_REASONER_HTTP_PORT": str(free_port()), "LLMLAND_REASONER_KB_ADDITIONS": "false"}
         if self.method in REASONER_MODE:
             env["LLMLAND_REASONER_MODE"] = REASONER_MODE[self.method]
         if self.llm_model_path:
@@ -95,6 +96,28 @@ class RunningStack:
     runner: EpisodeRunner
     #: per killed service, the newest state stamp (sim s) seen once it was dead (:meth:`kill_at`)
     killed_at_s: dict[str, float] = field(default_factory=dict)
+    #: services killed on purpose (fault runs), and those whose exit :meth:`watch` has reported
+    faulted: set[str] = field(default_factory=set)
+    _reported: set[str] = field(default_factory=set)
+
+    def run(self, mission: MissionGoal, wall_timeout_s: float | None = None) -> EpisodeResult:
+        """Fly ``mission`` on this stack (:meth:`EpisodeRunner.run`), watching its processes."""
+        return self.runner.run(mission, wall_timeout_s, watch=self.watch)
+
+    def watch(self) -> None:
+        """Raise RuntimeError once the simulator has exited (no result can come: the wait would last
+        its whole wall limit); log, once each, any other service that exited unasked (the episode
+        goes on without it, as the fault runs measure)."""
+        for name, proc in self.stack.procs.items():
+            code = proc.poll()
+            if code is None or name in self._reported:
+                continue
+            if name == "sim":
+                why = "was killed for a fault run" if name in self.faulted else f"exited with code {code}"
+                raise RuntimeError(f"the sim {why}: the episode has no result (its log: --service-log-level INFO)")
+            self._reported.add(name)
+            if name not in self.faulted:
+                log.error("service %s exited with code %s: the episode goes on without it", name, code)
 
     def peak_rss_mb(self, service: str) -> float | None:
         """Peak resident memory (MB) of a service process and its children (e.g. the LLM worker)."""
@@ -113,6 +136,7 @@ class RunningStack:
     def kill(self, service: str) -> None:
         """Kill one service (fault runs): SIGKILL to its process group."""
         proc = self.stack.procs[service]
+        self.faulted.add(service)
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait(timeout=10)

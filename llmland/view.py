@@ -45,11 +45,19 @@ def web_url(web_port: int = WEB_PORT, grpc_port: int = GRPC_PORT) -> str:
     return f"http://{LOOPBACK}:{web_port}/?url=rerun%2Bhttp://{LOOPBACK}:{grpc_port}/proxy"
 
 
+#: The first bytes of a Rerun recording (``.rrd``) as rerun-sdk 0.2x writes it.
+RRD_MAGIC = b"RRF2"
+
+
 def cmd_view(args: argparse.Namespace) -> int:
     rrd = Path(args.file)
     if not rrd.is_file():
         log.error("no such recording: %s", rrd)
         return 2
+    with rrd.open("rb") as fh:
+        if fh.read(len(RRD_MAGIC)) != RRD_MAGIC:  # the viewer would serve nothing, silently, until killed
+            log.error("%s is no Rerun recording (an .rrd file starts with %r)", rrd, RRD_MAGIC.decode())
+            return 2
     cli = rerun_cli()
     if cli is None:
         log.error("the rerun viewer is not installed (pip install rerun-sdk)")

@@ -31,6 +31,11 @@ from llmland.cli import build_parser
     (["land", "--scenario", "walk-in:x"], "--scenario: 'walk-in:x': use walk-in:"),
     (["land", "--llm-model", "/nonexistent.gguf"], "--llm-model: no such file"),
     (["trials", "--seeds", "1", "--llm-model", "/nonexistent.gguf"], "--llm-model: no such file"),
+    # were a traceback (drone id), a hang of up to 30 min (a folder for --rrd, killing the sim)
+    (["land", "--drone-id", "a/b"], "--drone-id: invalid drone id"),
+    (["up", "--drone-id", "x y"], "--drone-id: invalid drone id"),
+    (["land", "--rrd", "{tmp}"], "is a folder"),
+    (["land", "--kill", "sim@5"], "the sim is the episode"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:

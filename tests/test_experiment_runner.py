@@ -198,3 +198,19 @@ def test_resume_flies_a_row_cut_short_again_and_names_a_file_that_is_no_trials_t
         with pytest.raises(ValueError, match=says) as err:
             read_rows(path)
         assert str(path) in str(err.value)
+
+
+def test_an_earlier_run_is_kept_unless_resumed_or_overwritten(tmp_path: Path, stand_ins: dict[int, int]) -> None:
+    """A folder holding an earlier run is refused without --resume or --overwrite (a forgotten
+    --resume deleted its trials.csv and left its plots and traces beside the new run's); with
+    --overwrite the earlier run's files go and the folder's other files stay."""
+    experiment.run_experiment("exp1", tmp_path, trials=2, methods=["llm-land"])
+    (tmp_path / "traces").mkdir(exist_ok=True)
+    (tmp_path / "traces" / "old.json").write_text("{}")
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(ValueError, match="--resume to finish it, or --overwrite"):
+        experiment.run_experiment("exp1", tmp_path, trials=1, methods=["llm-land"])
+    assert len(read_rows(tmp_path / "trials.csv")) == 2  # untouched
+    summary = experiment.run_experiment("exp1", tmp_path, trials=1, methods=["llm-land"], overwrite=True)
+    assert summary["rows"][0]["n"] == 1 and len(read_rows(tmp_path / "trials.csv")) == 1
+    assert not (tmp_path / "traces" / "old.json").exists() and (tmp_path / "notes.txt").read_text() == "mine"

@@ -40,3 +40,38 @@ def test_perception_killed_mid_episode(service: str) -> None:
     assert KILL_AT_S <= killed_s <= degraded_from_s <= killed_s + FRAME_PERIOD_S + PERCEPTION_TIMEOUT_S + SLACK_S, (
         killed_s, r)
     assert r.spec_latency_ms_mean is not None  # specs did arrive before the fault
+
+
+def test_a_sim_that_dies_ends_the_wait_at_once() -> None:
+    """A sim that exits mid-episode (a crash, a kill) can send no result: the wait ends with a
+    RuntimeError within seconds, not after the wall limit (was up to 30 min: `land --rrd <folder>`
+    crashed the sim at its first frame and the command hung)."""
+    import os
+    import signal
+    import time
+
+    cfg = StackConfig("baseline", "none")
+    with open_stack(cfg) as running:
+        sim = running.stack.procs["sim"]
+        t0 = time.monotonic()
+        os.killpg(sim.pid, signal.SIGKILL)  # not through kill(): unasked, as a crash
+        with pytest.raises(RuntimeError, match="the sim exited"):
+            running.run(make_mission(cfg, world="open_field", seed=1, timeout_s=60.0))
+        assert time.monotonic() - t0 < 30.0  # the wall limit is 20 min
+
+
+def test_a_killed_planner_costs_no_wall_time_per_tick() -> None:
+    """Once the planner's liveliness token is gone, a lockstep tick stops waiting for its command:
+    the vehicle flies its failsafe as before (every tick after the kill a missing command), and a
+    sim second costs far less than one of wall (was 50 ms a tick: 30 s flown in 85 s of wall)."""
+    import time
+
+    cfg = StackConfig("baseline", "none")
+    with open_stack(cfg) as running:
+        running.kill_at("planner", 3.0)
+        t0 = time.monotonic()
+        r = running.run(make_mission(cfg, world="open_field", seed=1, timeout_s=30.0))
+        wall_s = time.monotonic() - t0
+    assert r.outcome == "timeout" and r.close_calls == 0 and min(r.min_person_distance_m.values()) >= 1.0, r
+    assert r.commands_missing >= 25 * 50, r  # 25 of the 30 s without a planner, 50 ticks a second
+    assert wall_s < 1.5 * r.sim_time_s, wall_s  # 2.8x before; ≈ 0.55x on the 2-core machine

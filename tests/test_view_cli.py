@@ -13,7 +13,7 @@ import pytest
 import rerun as rr
 
 from llmland.launch import free_port
-from llmland.view import LOOPBACK, has_display, rerun_cli, viewer_command, web_url
+from llmland.view import LOOPBACK, RRD_MAGIC, has_display, rerun_cli, viewer_command, web_url
 
 from .conftest import run_cli
 
@@ -34,6 +34,14 @@ def test_missing_file_is_an_error(tmp_path: Path) -> None:
     assert proc.returncode == 2 and "no such recording" in proc.stderr
 
 
+def test_a_file_that_is_no_recording_is_an_error(tmp_path: Path) -> None:
+    """Was: the web viewer started on a PNG and served nothing until killed."""
+    png = tmp_path / "frame.png"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    proc = run_cli("view", str(png))
+    assert proc.returncode == 2 and "no Rerun recording" in proc.stderr
+
+
 def test_web_viewer_serves_a_recording_on_loopback(tmp_path: Path) -> None:
     cli = rerun_cli()
     if cli is None:
@@ -44,6 +52,7 @@ def test_web_viewer_serves_a_recording_on_loopback(tmp_path: Path) -> None:
     rec.log("plot/x", rr.Scalars(1.0))
     rec.flush()
     rec.disconnect()
+    assert rrd.read_bytes()[: len(RRD_MAGIC)] == RRD_MAGIC  # what `llmland view` checks a file by
     web_port, grpc_port = free_port(), free_port()
     proc = subprocess.Popen(viewer_command(cli, rrd, web=True, web_port=web_port, grpc_port=grpc_port),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import logging
 import shlex
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -59,16 +60,39 @@ def _check_resumable(csv_path: Path, todo: list[Trial], default_lm: str) -> None
                              "the same options or use another --out")
 
 
+#: What a run writes into its folder: an earlier run's, removed by ``overwrite`` (nothing else is).
+RUN_FILES = ("trials.csv", "summary.json", "results.md", "meta.json")
+RUN_FOLDERS = ("traces", "rrd", "logs")
+
+
+def clear_run(out: Path) -> None:
+    """Remove an earlier run's files from ``out`` (:data:`RUN_FILES`, :data:`RUN_FOLDERS`, its
+    plots); anything else in the folder stays."""
+    for name in RUN_FILES:
+        (out / name).unlink(missing_ok=True)
+    for png in out.glob("*.png"):
+        png.unlink()
+    for name in RUN_FOLDERS:
+        shutil.rmtree(out / name, ignore_errors=True)
+
+
 def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
                    methods: list[str] | None = None, worlds: list[str] | None = None,
                    latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
                    jobs: int = 1, timeout_s: float = 90.0, rrd: bool = False, resume: bool = False,
-                   log_level: str = "WARNING", machine: str = "") -> dict[str, Any]:
+                   overwrite: bool = False, log_level: str = "WARNING", machine: str = "") -> dict[str, Any]:
     """Run (or finish, with ``resume``) an experiment into ``out``; returns ``summary.json``.
 
     Trials whose stack failed twice (``error`` rows) and trials with no row at all are left out
     of the figures and named in ``summary["errored_trials"]`` / ``summary["missing_trials"]``;
-    ``--resume`` flies both again."""
+    ``--resume`` flies both again. A folder that holds an earlier run's ``trials.csv`` is
+    refused (``ValueError``) unless ``resume`` finishes that run or ``overwrite`` removes it
+    (:func:`clear_run`): a forgotten ``--resume`` would have thrown away hours of trials."""
+    if (out / "trials.csv").exists() and not resume:
+        if not overwrite:
+            raise ValueError(f"{out} holds an earlier run (trials.csv): pass --resume to finish it, or "
+                             "--overwrite to remove its results, plots, traces and logs and start over")
+        clear_run(out)
     todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
                         latency_model=latency_model, specs=specs, ggufs=ggufs)
     default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")

@@ -245,7 +245,7 @@ class ExperimentRunner:
         mission = make_mission(trial.stack(), world=trial.world, seed=trial.seed, timeout_s=self.timeout_s,
                                n_pedestrians=trial.n_pedestrians, latency_model=trial.latency_model, rrd=rrd)
         tracer.start(mission.episode_id)
-        result = running.runner.run(mission, wall_timeout_s=60.0 + WALL_PER_SIM_S * self.timeout_s)
+        result = running.run(mission, wall_timeout_s=60.0 + WALL_PER_SIM_S * self.timeout_s)
         tracer.save(self.out / "traces" / f"{trial.name}.json")
         peak = running.peak_rss_mb("reasoner") if trial.stack().perception == "pipeline" else None
         log.info("%s: %s", trial.name, result.outcome)
