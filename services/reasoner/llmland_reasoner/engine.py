@@ -10,15 +10,15 @@ from typing import Any
 from llmland_schemas import SafetySpec
 
 from .extractor import SpecExtractor
-from .kb import KbEntry
+from .kb import KbEntry, add_to_additions
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
 
 
-def kb_write_path(settings: ReasonerSettings) -> Path:
-    """Where KB writes persist: the configured KB file, else beside the index (the shipped
-    KB inside the package is never overwritten)."""
-    return settings.kb_path or settings.index_dir / "knowledge_base.json"
+def kb_additions_path(settings: ReasonerSettings) -> Path:
+    """Where API writes persist when no KB file is configured: apart from the shipped KB, which
+    is never overwritten and, newer after an update, loads with them (:func:`~.kb.read_additions`)."""
+    return settings.index_dir / "kb_additions.json"
 
 
 class ReasonerEngine:
@@ -51,10 +51,13 @@ class ReasonerEngine:
         return None if hits is None else [x.spec for x in hits]
 
     def add_entry(self, entry: KbEntry, *, replace: bool = True) -> KbEntry:
-        """Validated KB write, persisted to the KB file when one is configured; caches cleared
-        (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
-        added = self.extractor().add_entry(entry, save_to=kb_write_path(self.settings), replace=replace)
+        """Validated KB write, persisted: the whole KB to the configured KB file, else the entry to
+        the additions file (:func:`kb_additions_path`); caches cleared (``replace=False``:
+        :class:`~.kb.KbEntryExistsError` for an existing id)."""
+        added = self.extractor().add_entry(entry, save_to=self.settings.kb_path, replace=replace)
         with self._lock:
+            if self.settings.kb_path is None:
+                add_to_additions(kb_additions_path(self.settings), added)
             for ex in self._extractors.values():
                 ex.clear_cache()
         return added

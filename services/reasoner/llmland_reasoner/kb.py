@@ -116,6 +116,43 @@ class KbEntryExistsError(ValueError):
     ``replace=False``)."""
 
 
+class KbAdditions(BaseModel):
+    """Entries written through the API on top of the shipped KB (``kb_additions.json``): kept
+    apart from it, so that a newer shipped KB is loaded with them, never hidden by an old copy."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    entries: list[KbEntry] = []
+
+
+def read_additions(path: Path) -> list[KbEntry]:
+    """The entries of an additions file; none when it is absent."""
+    if not path.exists():
+        return []
+    return KbAdditions.model_validate_json(path.read_text(encoding="utf-8")).entries
+
+
+def add_to_additions(path: Path, entry: KbEntry) -> None:
+    """Record ``entry`` in the additions file (replacing one with its id), atomically."""
+    kept = [e for e in read_additions(path) if e.id != entry.id]
+    _write_atomically(path, KbAdditions(entries=[*kept, entry]).model_dump_json(indent=1))
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """A temporary file in the same folder, then rename: a reader never sees half a file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 class KnowledgeBase:
     """An in-memory, validated knowledge base."""
 
@@ -170,16 +207,5 @@ class KnowledgeBase:
     def save(self, path: str | Path) -> None:
         """Write the KB atomically: a temporary file in the same folder, then rename."""
         target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        text = json.dumps(json.loads(self.to_json()), indent=1, ensure_ascii=False) + "\n"
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as handle:
-                handle.write(text)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        _write_atomically(target, json.dumps(json.loads(self.to_json()), indent=1, ensure_ascii=False) + "\n")
         log.info("kb %s saved to %s", self.version, target)

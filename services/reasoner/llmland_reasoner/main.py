@@ -14,7 +14,7 @@ from llmland_schemas.keys import ground_alive
 from llmland_schemas.service import configure_logging, watch_launcher
 
 from .bus_service import ReasonerBusService, caption_via_vle
-from .engine import ReasonerEngine, kb_write_path
+from .engine import ReasonerEngine
 from .http_api import create_app
 from .settings import ReasonerSettings
 
@@ -25,8 +25,11 @@ def main() -> None:
     configure_logging()
     watch_launcher()
     settings = ReasonerSettings()
-    if settings.kb_path is None and kb_write_path(settings).exists():
-        settings = settings.model_copy(update={"kb_path": kb_write_path(settings)})  # earlier API writes
+    old_copy = settings.index_dir / "knowledge_base.json"  # where API writes went before kb_additions.json
+    if settings.kb_path is None and old_copy.exists():
+        log.warning("%s (a whole KB saved by an older version's API writes) is no longer loaded: it hid "
+                    "newer shipped KBs; re-add its entries through the API or set LLMLAND_REASONER_KB_PATH",
+                    old_copy)
     if settings.http_host not in ("127.0.0.1", "localhost", "::1") and settings.api_token is None:
         log.warning("HTTP API bound to %s without LLMLAND_REASONER_API_TOKEN", settings.http_host)
     engine = ReasonerEngine(settings)

@@ -166,6 +166,11 @@ def run_retrieval(caption: str, res: Resources, every_mention: bool = True,
     return most_careful_of_mentions(caption, answer, hits[0][0], "retrieval", res, found=found)
 
 
+#: The label of the paper's LLM-only answer, which names no class (not "unknown": that is the
+#: careful spec's label, 5 m, and this answer's numbers are the LLM's own, as small as it says).
+LLM_ONLY_LABEL = "unlabelled"
+
+
 def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -> Outcome:
     if res.backend is None:
         raise RuntimeError("no LLM backend loaded")
@@ -177,6 +182,6 @@ def run_llm(caption: str, res: Resources, max_tokens: int, temperature: float) -
         is_dynamic=answer.is_dynamic == "yes",
         z_min=answer.z_min,
         buffer_m=answer.buffer,
-        label="unknown",
+        label=LLM_ONLY_LABEL,
         model=res.backend.name,
     )

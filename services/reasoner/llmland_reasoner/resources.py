@@ -15,7 +15,7 @@ from pathlib import Path
 from . import prompts
 from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline, load_sentence_model
 from .grounding import NameIndex
-from .kb import KbEntry, KnowledgeBase
+from .kb import KbEntry, KnowledgeBase, read_additions
 from .lexicon import WordNet
 from .llm import LlamaCppBackend, LlmBackend
 from .llm_worker import WorkerLlmBackend
@@ -54,6 +54,28 @@ def warm_prefixes(settings: ReasonerSettings) -> list[str]:
     return []
 
 
+def _load_kb(settings: ReasonerSettings) -> KnowledgeBase:
+    """The configured KB file, else the shipped KB with the entries written through the API on
+    this machine (``settings.kb_additions``; said at WARNING: they change its answers). A damaged
+    additions file is logged and left out: the shipped KB still loads."""
+    kb = KnowledgeBase.load(settings.kb_path)
+    if settings.kb_path is not None or not settings.kb_additions:
+        return kb
+    path = settings.index_dir / "kb_additions.json"
+    try:
+        added = read_additions(path)
+    except (OSError, ValueError) as exc:
+        log.error("KB additions in %s left out (unreadable): %s", path, exc)
+        return kb
+    for entry in added:
+        kb.add(entry)
+    if added:
+        log.warning("KB %s: the shipped KB with %d entries written through the API (%s) from %s; "
+                    "LLMLAND_REASONER_KB_ADDITIONS=false leaves them out", kb.version, len(added),
+                    ", ".join(e.id for e in added), path)
+    return kb
+
+
 @dataclass
 class Resources:
     """Loaded models; ``None`` for a part the chosen mode(s) do not need."""
@@ -74,7 +96,7 @@ class Resources:
     def load(cls, settings: ReasonerSettings, *, retrieval: bool = True, llm: bool = True) -> Resources:
         force_offline()
         started = time.perf_counter()
-        res = cls(settings=settings, kb=KnowledgeBase.load(settings.kb_path))
+        res = cls(settings=settings, kb=_load_kb(settings))
         # A worker process loads its model on the other core while this one loads the embedder.
         t0 = time.perf_counter()
         res.backend = make_backend(settings, wait=False) if llm else None

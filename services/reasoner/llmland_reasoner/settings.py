@@ -42,8 +42,13 @@ class ReasonerSettings(BaseSettings):
     #: what runs the embedding model: ``numpy`` (BERT models, no torch: loads in ≈1 s),
     #: ``sentence-transformers`` (any model, 6–8 s to import), ``auto`` (numpy when it can)
     embed_backend: Literal["auto", "numpy", "sentence-transformers"] = "auto"
-    #: the knowledge-base JSON; empty: the one shipped with the package
+    #: the knowledge-base JSON; empty: the one shipped with the package. API writes go to this
+    #: file when it is set, else to ``index_dir/kb_additions.json``
     kb_path: Path | None = None
+    #: with no ``kb_path``: load the entries written through the API (``index_dir/kb_additions.json``)
+    #: on top of the shipped KB. ``llmland land`` and ``experiment`` set it false: a run flies the
+    #: KB as shipped, whatever was added on this machine before
+    kb_additions: bool = True
     #: where the retrieval index is persisted, one folder per KB version
     index_dir: Path = Field(default_factory=default_index_dir)
     #: llama.cpp threads. 1 by default: on a 2-core machine shared with the sim and planner,

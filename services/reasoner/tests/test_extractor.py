@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 from llmland_reasoner import deadline
 from llmland_reasoner.extractor import SpecExtractor
-from llmland_reasoner.pipeline import normalize_caption
+from llmland_reasoner.pipeline import LLM_ONLY_LABEL, normalize_caption
 from llmland_reasoner.resources import Resources
 from llmland_schemas.messages import CONSERVATIVE_BUFFER_M, SafetySpec
 
@@ -111,7 +111,9 @@ def test_rag_ablation_without_the_llm(resources: Resources) -> None:
 def test_llm_mode_uses_no_retrieval(resources: Resources) -> None:
     no_retrieval = replace(resources, retriever=None, names=None, embed=None)
     spec = SpecExtractor("llm", resources=no_retrieval).extract("a dog running on a beach")
-    assert spec.source == "llm" and spec.evidence == [] and spec.label == "unknown"
+    # the paper's LLM-only answer names no class: not "unknown", the careful spec's label (a newcomer
+    # read "a parked red car" -> "unknown", 1 m as an unknown thing given 1 m)
+    assert spec.source == "llm" and spec.evidence == [] and spec.label == LLM_ONLY_LABEL
     assert spec.model.startswith("SmolLM2")
 
 

@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from llmland_reasoner.engine import ReasonerEngine
 from llmland_reasoner.http_api import create_app
+from llmland_reasoner.kb import read_additions
 from llmland_reasoner.resources import Resources
 from llmland_reasoner.settings import ReasonerSettings
 from llmland_reasoner.upload import check_image, image_size
@@ -220,8 +221,8 @@ def test_kb_read_write_validated_and_persisted(base_url: str, engine: ReasonerEn
     assert r.status_code == 201, r.text
     after = httpx.get(f"{base_url}/v1/kb").json()
     assert after["version"] != kb["version"] and any(e["id"] == "llama_test" for e in after["entries"])
-    persisted = engine.settings.index_dir / "knowledge_base.json"
-    assert "llama_test" in persisted.read_text()
+    persisted = engine.settings.index_dir / "kb_additions.json"  # the entry, apart from the shipped KB
+    assert [e.id for e in read_additions(persisted)] == ["llama_test"]
     bad = dict(entry, buffer_m=-3)
     r = httpx.post(f"{base_url}/v1/kb", json=bad)
     assert r.status_code == 422 and "buffer_m" in r.text

@@ -4,7 +4,15 @@ import json
 from pathlib import Path
 
 import pytest
-from llmland_reasoner.kb import KbEntry, KbEntryExistsError, KnowledgeBase, category_problems, default_kb_path
+from llmland_reasoner.kb import (
+    KbEntry,
+    KbEntryExistsError,
+    KnowledgeBase,
+    add_to_additions,
+    category_problems,
+    default_kb_path,
+    read_additions,
+)
 from pydantic import ValidationError
 
 
@@ -116,3 +124,23 @@ def test_every_shipped_entry_meets_its_category_minimum() -> None:
         assert category_problems(entry) == [], entry.id
         if entry.category in ("person", "animal"):
             assert entry.is_dynamic and entry.is_human == (entry.category == "person")
+
+
+def test_api_additions_load_on_top_of_a_newer_shipped_kb(tmp_path: Path, robot_mower: dict[str, object]) -> None:
+    """Entries written through the API are kept apart from the shipped KB and load on top of it:
+    an update of the shipped KB is never hidden by an old whole copy (as it was: a write saved the
+    whole KB under the cache, loaded instead of the package's on every later start, every checkout)."""
+    from llmland_reasoner.resources import _load_kb
+    from llmland_reasoner.settings import ReasonerSettings
+
+    path = tmp_path / "kb_additions.json"
+    add_to_additions(path, KbEntry.model_validate(robot_mower))
+    add_to_additions(path, KbEntry.model_validate({**robot_mower, "buffer_m": 7.0}))  # replaced, not doubled
+    assert [e.buffer_m for e in read_additions(path)] == [7.0]
+    shipped = KnowledgeBase.load()
+    kb = _load_kb(ReasonerSettings(index_dir=tmp_path))
+    assert len(kb) == len(shipped) + 1 and kb.get(str(robot_mower["id"])).buffer_m == 7.0
+    assert all(kb.get(e.id) == e for e in shipped.entries)  # every shipped entry as shipped
+    assert len(_load_kb(ReasonerSettings(index_dir=tmp_path, kb_additions=False))) == len(shipped)
+    path.write_text("{not json")
+    assert len(_load_kb(ReasonerSettings(index_dir=tmp_path))) == len(shipped)  # damaged: left out, logged
