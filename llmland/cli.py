@@ -162,9 +162,11 @@ def cmd_up(args: argparse.Namespace) -> int:
     with hub_bus(port) as bus, Fleet(port, drones, log_level=args.service_log_level, log_dir=log_dir) as fleet:
         fleet.start(args.services)
         fleet.wait_alive(bus, timeout_s=args.start_timeout)
-        log.info("services up on %s for drone(s) %s: %s — send a mission with `llmland mission --world open_field "
-                 "--seed 1 --drone-id %s`; Ctrl-C stops all", hub_endpoint(port), ", ".join(drones),
-                 ", ".join(args.services), drones[0])
+        flies = {"sim", "planner"} <= set(args.services) or {"sim", "pilot"} <= set(args.services)
+        hint = (f"send a mission with `llmland mission --world open_field --seed 1 --drone-id {drones[0]}`"
+                if flies else "no sim with a planner or pilot here: missions need them (on this bus or another)")
+        log.info("services up on %s for drone(s) %s: %s — %s; Ctrl-C stops all", hub_endpoint(port),
+                 ", ".join(drones), ", ".join(args.services), hint)
         if "reasoner" in args.services:
             log.info("reasoner HTTP API on %s (POST an image to /v1/spec; interactive docs at /docs)",
                      _reasoner_http_url())
@@ -240,11 +242,12 @@ def _print_figures(figures: Mapping[str, object], *, as_json: bool) -> None:
 
 
 def _episode_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--world", choices=WORLDS, default="open_field")
+    p.add_argument("--world", choices=WORLDS, default="open_field", help="(default: open_field)")
     p.add_argument("--method", choices=METHODS, default="llm-land",
                    help="llm-land (RAG, the default), llm (no retrieval), baseline (geometry, 1 m margin), "
                         "conservative (geometry, every obstacle a person), reference (no obstacles)")
-    p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
+    p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep",
+                   help="lockstep (default: latency-faithful, faster than real time) or realtime")
     p.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
     p.add_argument("--pedestrians", type=non_negative_int, default=None,
                    help="number of pedestrians (default: the world's)")
@@ -259,7 +262,7 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", type=scenario, default=None,
                    help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
                         "final descent starts)")
-    p.add_argument("--drone-id", type=drone_id, default="d0")
+    p.add_argument("--drone-id", type=drone_id, default="d0", help="(default: d0)")
     p.add_argument("--port", type=port, default=0, help="bus port (default: a free one)")
 
 
@@ -283,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     land = sub.add_parser("land", help="fly one episode and print its EpisodeResult JSON")
     _episode_args(land)
-    land.add_argument("--seed", type=non_negative_int, default=1)
+    land.add_argument("--seed", type=non_negative_int, default=1, help="the world's seed (default: 1)")
     land.add_argument("--rrd", type=writable_file, help="write a Rerun recording of the episode to this file")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     land.add_argument("--kill", type=fault, action="append", default=[], metavar="SERVICE@SIM_S",
