@@ -7,12 +7,13 @@ Wrangler driving on a trail" was a hiker (3 m) and "a Ford Mustang speeding down
 horse (4 m). The make and its model are one mention of the make's vehicle entry.
 
 What stops a model name: a function word, punctuation, a participle or a word used mostly as a
-verb ("a ford mustang *speeding*"), a KB name of a person or a vehicle (that noun is the head: "a
-ford truck", "a toyota driver"), and the nouns for what belongs to a make rather than a model of
-it (:data:`MAKE_ROLES`: "a harley rider", "a honda dealership"). A make with no model after it
-("a harley parked outside", "a man on a yamaha") names its vehicle only when WordNet does not know
-the word in another sense: "a jaguar" and "a ram" stay animals, "a ford" a river crossing, as
-their other rules read them.
+verb ("a ford mustang *speeding*"), a KB name of a person or a vehicle (that noun is the head:
+"a ford truck" is only the truck), and the nouns for what belongs to a make rather than a model
+of it (:data:`MAKE_ROLES`: "a harley rider" is a harley and its rider). A make with no model
+after it ("a harley parked outside", "a man on a yamaha", "a zamboni") names its vehicle only
+where WordNet names nothing but vehicles by the word as a common noun: "a jaguar" and "a ram"
+stay animals, "a ford" a river crossing, as their other rules read them. After a make that names a living being, only a
+code, an unknown word or a vehicle noun is a model: "a jaguar cub", "a cat toy" stay the animal.
 """
 
 from __future__ import annotations
@@ -25,8 +26,11 @@ from .words import DETERMINERS, FUNCTION_WORDS
 
 #: How many words after a make may name its model ("a tesla model 3", "a toyota land cruiser").
 MODEL_WORDS = 2
+#: WordNet classes of a living being: after such a make, only codes and vehicle nouns are models.
+LIVING = frozenset({"person", "animal"})
 #: Nouns after a make that name what belongs to it, not a model of it: its people, its places,
-#: its signs. The noun is then the head of the phrase ("a harley rider": a person on one).
+#: its signs. The make is then its vehicle and the noun its own mention ("a harley rider": a
+#: harley and the person on it).
 MAKE_ROLES = frozenset(
     "driver drivers rider riders owner owners dealer dealers dealership dealerships mechanic mechanics "
     "enthusiast enthusiasts fan fans club salesman salesmen factory plant showroom store garage logo "
@@ -57,23 +61,35 @@ class MakeIndex:
             entry = self._makes.get(tuple(words[i : i + n]))
             if entry is None:
                 continue
+            senses = self.wordnet.senses(" ".join(words[i : i + n]))  # its common-noun senses
+            living = any(sense.word_class in LIVING for sense in senses)
             model = 0
             while model < MODEL_WORDS and i + n + model < len(words) and \
-                    self._model_word(words, i + n + model, names_head):
+                    self._model_word(words, i + n + model, names_head, living):
                 model += 1
             nxt = words[i + n] if i + n < len(words) else ""
             if model:
                 return n + model, entry
-            if nxt in MAKE_ROLES or (nxt and names_head(words, i + n)):
-                return n, None  # "a ford truck", "a harley rider": the noun after it is the head
-            known = self.wordnet.is_known(words[i]) if n == 1 else bool(self.wordnet.senses(" ".join(words[i : i + n])))
-            return None if known else (n, entry)
+            if nxt in MAKE_ROLES:
+                return n, entry  # "a harley rider", "a ford dealer": the make's vehicle and its person
+            if nxt and names_head(words, i + n):
+                return n, None  # "a ford truck", "a cat excavator": the KB's noun after it is the head
+            # alone, a make names its vehicle where WordNet names nothing else by the word ("a
+            # zamboni", "a harley", "a jeep"; not "a ram", "a ford", "a tesla", "a jaguar")
+            return (n, entry) if all(sense.word_class == "vehicle" for sense in senses) else None
         return None
 
-    def _model_word(self, words: Sequence[str], j: int, names_head: Callable[[Sequence[str], int], bool]) -> bool:
+    def _model_word(self, words: Sequence[str], j: int, names_head: Callable[[Sequence[str], int], bool],
+                    living: bool) -> bool:
+        """Whether ``words[j]`` may name a model. After a make that is also a living being's name
+        ("jaguar", "cat", "ram"), only a code ("f-type", "1500"), a word WordNet lacks or a
+        vehicle's noun ("a ram pickup"): "a jaguar cub", "a cat toy" are not cars."""
         word = words[j]
         if not word[0].isalnum() or word in FUNCTION_WORDS or word in DETERMINERS or word in MAKE_ROLES:
             return False
         if word.isalpha() and (word.endswith(("ing", "ed")) or self.wordnet.mostly_verb(word)):
             return False  # "a ford mustang speeding", "a jeep parked": the verb, not a model
+        if living and word.isalpha() and self.wordnet.is_known(word) and \
+                self.wordnet.noun_class(self.wordnet.lemma(word)) != "vehicle":
+            return False
         return not names_head(words, j)

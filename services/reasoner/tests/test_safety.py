@@ -254,6 +254,7 @@ def test_a_static_thing_the_kb_names_is_that_thing(extractor: SpecExtractor, cap
     "a peloton racing through a village street",
     # a motorcyclist is a person (was the motorcycle entry: not human, so not a possible person)
     "a motorcyclist waiting at a red light",
+    "a harley rider on the highway",  # a make before a rider is the two-wheeler they ride
     # a riding verb puts the person on what follows, even a word no one knows (a typo)
     "a man riding a bicyle on the sidewlak",
 ])
@@ -312,6 +313,9 @@ def test_a_crowd_counting_people_stays_the_crowd(extractor: SpecExtractor) -> No
     "a john deere combine harvesting wheat",  # was the wheat: 1 m crops
     "a harley davidson parked outside a bar",  # a make alone that WordNet does not know
     "a cat excavator digging a trench",  # a make before the KB's vehicle qualifies it: not the animal
+    "a cat 320 excavator",  # a code after a living being's make is a model
+    "a ram 1500 driving on the highway",
+    "a zamboni resurfacing the ice at an empty rink",  # WordNet's machine (an object): the KB's vehicle
 ])
 def test_a_make_and_its_model_are_a_vehicle(extractor: SpecExtractor, caption: str) -> None:
     spec = extractor.extract(caption)
@@ -322,6 +326,8 @@ def test_a_make_and_its_model_are_a_vehicle(extractor: SpecExtractor, caption: s
     ("a jaguar resting in a tree", "animal"),  # a make alone that WordNet knows keeps its other rules
     ("a ram grazing on the hillside", "animal"),
     ("a ford driver waving", "person"),  # a make before a person's KB name: the person
+    ("a jaguar cub playing in the grass", "animal"),  # after a living being's make only codes are models
+    ("a cat toy on the floor", "animal"),
 ])
 def test_a_make_alone_that_names_something_else_is_that(extractor: SpecExtractor, caption: str, label: str) -> None:
     spec = extractor.extract(caption)
@@ -333,3 +339,12 @@ def test_on_an_unknown_word_is_no_ride(extractor: SpecExtractor) -> None:
     an unknown thing ridden."""
     spec = extractor.extract("a man walkng his dgo on the sidewlk")
     assert spec.is_human and spec.label != "cyclist", spec
+
+
+@pytest.mark.parametrize("caption", ["a dump truck carrying dirt at a quarry",
+                                     "a caterpillar loader moving gravel in a quarry"])
+def test_a_quarry_is_a_place(extractor: SpecExtractor, caption: str) -> None:
+    """KB 1.4.1: WordNet's first "quarry" is prey (a person, then an animal; no counts), which won
+    as a 4 m deer over the 5 m vehicle by the care order (living things first)."""
+    spec = extractor.extract(caption)
+    assert not spec.is_human and spec.is_dynamic and spec.buffer_m >= 5.0 and spec.label != "deer", spec
