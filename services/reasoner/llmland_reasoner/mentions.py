@@ -145,6 +145,10 @@ DISPLAY_NOUNS = frozenset(
     "poster billboard mural painting sign banner screen television tv advert advertisement graffiti "
     "drawing".split()
 )
+#: Where a displayed picture is put, after "on the", "in the", "at the" and before "of" ("a poster
+#: of a woman on the side of a bus": the bus is real).
+PLACEMENT_SURFACES = frozenset("side sides back front wall walls window windows door doors roof top".split())
+PLACEMENT_PREPOSITIONS = frozenset({"on", "in", "at"})
 _TOKEN = re.compile(r"[a-z0-9]+(?:[-'][a-z0-9]+)*|[,;]")
 _LIVING_OR_VEHICLE = frozenset({"person", "animal", "vehicle"})
 
@@ -622,11 +626,16 @@ class MentionFinder:
         return out
 
     def _mark_depicted(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Mark what a depiction's "of" names as depicted, up to :data:`COMPLEMENT_BOUNDARY`; for a
+        flat thing put up somewhere (:data:`DISPLAY_NOUNS`), also up to where it is put: "a poster
+        of a woman | on the side of a bus" (:data:`PLACEMENT_SURFACES`; the bus was depicted: 1 m)."""
         out = list(mentions)
         for m in mentions:
             if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words) or words[m.end] != "of":
                 continue
-            stop = next((j for j in range(m.end + 1, len(words)) if words[j] in COMPLEMENT_BOUNDARY), len(words))
+            displayed = m.text.split()[-1] in DISPLAY_NOUNS
+            stop = next((j for j in range(m.end + 1, len(words)) if words[j] in COMPLEMENT_BOUNDARY
+                         or (displayed and _placed_at(words, j))), len(words))
             out = [_with(x, "depicted") if m.end < x.start < stop and x.status == "present" else x for x in out]
         return out
 
@@ -648,6 +657,13 @@ class MentionFinder:
                     continue
                 break
         return out
+
+
+def _placed_at(words: Sequence[str], j: int) -> bool:
+    """Whether ``words[j:]`` say where a displayed picture is put: "on the side of", "in the
+    window of" (a preposition, a determiner, a :data:`PLACEMENT_SURFACES` noun, "of")."""
+    return (words[j] in PLACEMENT_PREPOSITIONS and words[j + 1 : j + 2] != [] and words[j + 1] in DETERMINERS
+            and words[j + 2 : j + 3] != [] and words[j + 2] in PLACEMENT_SURFACES and words[j + 3 : j + 4] == ["of"])
 
 
 def _with(found: Found, status: Status) -> Found:

@@ -78,6 +78,18 @@ def test_negation_and_depiction_lower_only_what_they_name(
     assert found[absent] == status
 
 
+@pytest.mark.parametrize(("caption", "real", "depicted"), [
+    # a displayed picture's scope ends where it is put (the bus was depicted: a 1 m poster)
+    ("a poster of a woman on the side of a bus", "bus", "woman"),
+    ("graffiti of a horse on the side of a train", "train", "horse"),
+    ("a banner of a runner in the window of a van", "van", "runner"),
+])
+def test_what_a_displayed_picture_is_put_on_is_real(finder: MentionFinder, caption: str, real: str,
+                                                    depicted: str) -> None:
+    found = {f.text: f.status for f in finder.find(caption)}
+    assert found[real] == "present" and found[depicted] == "depicted", found
+
+
 @pytest.mark.parametrize("caption", [
     "a photo of a man running on a beach",  # the camera's own photo: the man is there
     "a black and white photo of a person holding a frisbee",
