@@ -214,3 +214,13 @@ def test_an_earlier_run_is_kept_unless_resumed_or_overwritten(tmp_path: Path, st
     summary = experiment.run_experiment("exp1", tmp_path, trials=1, methods=["llm-land"], overwrite=True)
     assert summary["rows"][0]["n"] == 1 and len(read_rows(tmp_path / "trials.csv")) == 1
     assert not (tmp_path / "traces" / "old.json").exists() and (tmp_path / "notes.txt").read_text() == "mine"
+
+
+def test_without_a_terminal_the_running_counts_are_log_lines(tmp_path: Path, stand_ins: dict[int, int],
+                                                             caplog: pytest.LogCaptureFixture) -> None:
+    """No progress bar when stderr is no terminal (its redraws prefixed every captured log line);
+    its running success counts come as a log line per trial instead."""
+    caplog.set_level("INFO", logger="llmland.experiment.runner")
+    trials = [Trial("open_field", "llm-land", s) for s in range(1, 4)]
+    ExperimentRunner(trials, tmp_path, jobs=1).run()
+    assert "3 of 3 trials done; succeeded: llm-land 3/3" in caplog.text

@@ -200,6 +200,7 @@ class ExperimentRunner:
         self._lock = threading.Lock()
         self._tally: dict[str, Counter[str]] = {}
         self._bar: tqdm | None = None
+        self._total = len(self.todo)  # trials this run flies (for the progress line without a terminal)
         self._stop = threading.Event()
         self._live: dict[int, RunningStack] = {}
         #: each job's stack from the moment its processes exist (up or still starting) to the job's end
@@ -227,9 +228,13 @@ class ExperimentRunner:
             tally = self._tally.setdefault(name, Counter())
             tally["n"] += 1
             tally["ok"] += int(row["success"])
-            if self._bar is not None:
-                self._bar.set_postfix_str(" · ".join(f"{k} {c['ok']}/{c['n']}" for k, c in self._tally.items()))
+            counts = " · ".join(f"{k} {c['ok']}/{c['n']}" for k, c in self._tally.items())
+            if self._bar is not None and not self._bar.disable:
+                self._bar.set_postfix_str(counts)
                 self._bar.update(1)
+            else:  # no terminal: the bar's running counts as a log line
+                done = sum(c["n"] for c in self._tally.values())
+                log.info("%d of %d trials done; succeeded: %s", done, self._total, counts)
 
     def _record_safely(self, row: dict[str, Any]) -> None:
         """:meth:`_record`, and a failure to (a full disk) logged: the job flies on, and the
@@ -322,8 +327,10 @@ class ExperimentRunner:
         t0 = time.perf_counter()
         if not self.todo:
             return 0.0
+        # no bar when stderr is no terminal (disable=None): in a captured log its redraws prefixed
+        # every log line; each trial's outcome is logged anyway
         with logging_redirect_tqdm(), tqdm(total=len(self.todo), desc=self.label or "trials", unit="trial",
-                                           dynamic_ncols=True) as bar:
+                                           dynamic_ncols=True, disable=None) as bar:
             self._bar = bar
             self._finished = [threading.Event() for _ in range(self.jobs)]
             threads = [threading.Thread(target=self._job, args=(i,), name=f"job{i}") for i in range(self.jobs)]
