@@ -94,9 +94,22 @@ def writable_file(text: str) -> str:
 
 
 def existing_file(text: str) -> str:
-    """A file that exists (``--gguf``, ``--llm-model``)."""
+    """A file that exists."""
     if not Path(text).is_file():
         raise argparse.ArgumentTypeError(f"no such file: {text}")
+    return text
+
+
+#: The first bytes of a GGUF model file (the llama.cpp format).
+GGUF_MAGIC = b"GGUF"
+
+
+def gguf_file(text: str) -> str:
+    """A GGUF model file (``--gguf``, ``--llm-model``): it exists and starts with ``GGUF``."""
+    existing_file(text)
+    with Path(text).open("rb") as fh:
+        if fh.read(len(GGUF_MAGIC)) != GGUF_MAGIC:
+            raise argparse.ArgumentTypeError(f"{text} is no GGUF model file (it does not start with 'GGUF')")
     return text
 
 

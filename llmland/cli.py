@@ -21,8 +21,8 @@ from llmland_schemas.service import configure_logging, shutdown_event
 
 from .arguments import (
     drone_id,
-    existing_file,
     fault,
+    gguf_file,
     latency_model,
     names_from,
     non_negative_int,
@@ -104,11 +104,15 @@ def cmd_trials(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "trials.csv"
     csv_path.unlink(missing_ok=True)
-    rows = []
+    rows: list[EpisodeResult] = []
     cfg = _config(args)
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
         for seed in args.seeds:
-            r = running.run(_mission(args, cfg, seed))
+            try:
+                r = running.run(_mission(args, cfg, seed))
+            except (RuntimeError, TimeoutError) as exc:  # the sim died, or no result in the wall limit
+                log.error("seed %d: %s; the %d rows before it are in %s", seed, exc, len(rows), csv_path)
+                return 1
             rows.append(r)
             append_row(csv_path, trial_row(Trial(args.world, args.method, seed, latency_model=args.latency_model),
                                            r, None))
@@ -257,7 +261,7 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--latency-model", type=latency_model, default=None,
                    help="lockstep: when specs take effect — measured (default for the pipeline), fixed:<ms>, "
                         "normal:<mean_ms>,<sd_ms> (fixed:50 for oracle specs)")
-    p.add_argument("--llm-model", type=existing_file, default=None,
+    p.add_argument("--llm-model", type=gguf_file, default=None,
                    help="a GGUF file for the reasoner (default: SmolLM2-135M)")
     p.add_argument("--scenario", type=scenario, default=None,
                    help="scripted test: walk-in:<distance_m>,<speed_mps> (a person walks to the pad as the "
@@ -315,7 +319,7 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
                      help="measured (default), fixed:<ms> or normal:<mean_ms>,<sd_ms>: replays other hardware")
     exp.add_argument("--specs", choices=["pipeline", "oracle"], default="pipeline",
                      help="semantic methods: real perception (default) or specs given from ground truth")
-    exp.add_argument("--gguf", type=existing_file, action="append", default=[],
+    exp.add_argument("--gguf", type=gguf_file, action="append", default=[],
                      help="exp3: another GGUF model to compare (repeat)")
     exp.add_argument("--jobs", type=positive_int, default=1,
                      help="episodes in parallel, each its own stack and bus port")
@@ -335,7 +339,7 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
     up.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
-    up.add_argument("--drones", type=int, default=0, metavar="N",
+    up.add_argument("--drones", type=positive_int, default=None, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
     up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
     up.add_argument("--log-dir", help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")

@@ -56,7 +56,8 @@ class EpisodeRunner:
             watch: Callable[[], None] | None = None) -> EpisodeResult:
         """Start ``mission`` (re-sent until the sim answers) and wait for its result.
 
-        ``watch``: called about once a second while waiting; what it raises ends the wait (a
+        ``watch``: called at each wake-up of the wait (every 0.5 s before the sim starts the
+        episode, every second after); what it raises ends the wait (a
         stack's check that its simulator is still running: :meth:`~.stacks.RunningStack.watch`).
         """
         mission_key = key(self.drone_id, Topic.MISSION)

@@ -36,6 +36,10 @@ from llmland.cli import build_parser
     (["up", "--drone-id", "x y"], "--drone-id: invalid drone id"),
     (["land", "--rrd", "{tmp}"], "is a folder"),
     (["land", "--kill", "sim@5"], "the sim is the episode"),
+    # were tracebacks (a second newcomer): a file that is no model, a negative or zero fleet
+    (["land", "--llm-model", "README.md"], "is no GGUF model file"),
+    (["up", "--drones", "-2"], "--drones: must be >= 0"),
+    (["up", "--drones", "0"], "--drones: must be >= 1"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:

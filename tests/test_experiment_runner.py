@@ -208,12 +208,14 @@ def test_an_earlier_run_is_kept_unless_resumed_or_overwritten(tmp_path: Path, st
     (tmp_path / "traces").mkdir(exist_ok=True)
     (tmp_path / "traces" / "old.json").write_text("{}")
     (tmp_path / "notes.txt").write_text("mine")
+    (tmp_path / "site_photo.png").write_bytes(b"mine")  # a user's own picture is no plot (review)
     with pytest.raises(ValueError, match="--resume to finish it, or --overwrite"):
         experiment.run_experiment("exp1", tmp_path, trials=1, methods=["llm-land"])
     assert len(read_rows(tmp_path / "trials.csv")) == 2  # untouched
     summary = experiment.run_experiment("exp1", tmp_path, trials=1, methods=["llm-land"], overwrite=True)
     assert summary["rows"][0]["n"] == 1 and len(read_rows(tmp_path / "trials.csv")) == 1
     assert not (tmp_path / "traces" / "old.json").exists() and (tmp_path / "notes.txt").read_text() == "mine"
+    assert (tmp_path / "site_photo.png").read_bytes() == b"mine"
 
 
 def test_without_a_terminal_the_running_counts_are_log_lines(tmp_path: Path, stand_ins: dict[int, int],

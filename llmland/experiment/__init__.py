@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from .plan import EXPERIMENTS, Trial, build_trials
-from .plots import write_plots
+from .plots import PLOT_PATTERNS, write_plots
 from .report import summarize, write_report
 from .runner import ExperimentRunner, read_rows, row_key
 
@@ -67,11 +67,12 @@ RUN_FOLDERS = ("traces", "rrd", "logs")
 
 def clear_run(out: Path) -> None:
     """Remove an earlier run's files from ``out`` (:data:`RUN_FILES`, :data:`RUN_FOLDERS`, its
-    plots); anything else in the folder stays."""
+    plots: :data:`~.plots.PLOT_PATTERNS`); anything else in the folder stays."""
     for name in RUN_FILES:
         (out / name).unlink(missing_ok=True)
-    for png in out.glob("*.png"):
-        png.unlink()
+    for pattern in PLOT_PATTERNS:
+        for png in out.glob(pattern):
+            png.unlink()
     for name in RUN_FOLDERS:
         shutil.rmtree(out / name, ignore_errors=True)
 
@@ -88,13 +89,13 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     ``--resume`` flies both again. A folder that holds an earlier run's ``trials.csv`` is
     refused (``ValueError``) unless ``resume`` finishes that run or ``overwrite`` removes it
     (:func:`clear_run`): a forgotten ``--resume`` would have thrown away hours of trials."""
-    if (out / "trials.csv").exists() and not resume:
+    todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
+                        latency_model=latency_model, specs=specs, ggufs=ggufs)
+    if (out / "trials.csv").exists() and not resume:  # after the plan is checked: a bad one clears nothing
         if not overwrite:
             raise ValueError(f"{out} holds an earlier run (trials.csv): pass --resume to finish it, or "
                              "--overwrite to remove its results, plots, traces and logs and start over")
         clear_run(out)
-    todo = build_trials(experiment, trials=trials, seed_base=seed_base, methods=methods, worlds=worlds,
-                        latency_model=latency_model, specs=specs, ggufs=ggufs)
     default_lm = latency_model or ("fixed:50" if specs == "oracle" else "measured")
     if resume:
         _check_resumable(out / "trials.csv", todo, default_lm)

@@ -100,6 +100,10 @@ def trajectory(trace_path: Path, title: str, path: Path) -> None:
     plt.close(fig)
 
 
+#: The plots a run writes (``trajectory_<method>.png`` per method): what ``--overwrite`` removes.
+PLOT_PATTERNS = ("success.png", "closest_person.png", "spec_latency.png", "trajectory_*.png")
+
+
 def write_plots(out: Path, summary: dict[str, Any], rows: list[dict[str, str]]) -> list[Path]:
     """Every plot of the folder; returns the files written."""
     written = [out / "success.png", out / "closest_person.png"]
