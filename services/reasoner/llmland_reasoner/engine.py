@@ -4,21 +4,14 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from llmland_schemas import SafetySpec
 
 from .extractor import SpecExtractor
-from .kb import KbEntry, add_to_additions
+from .kb import KbEntry, KbEntryExistsError, add_to_additions, usable_additions
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
-
-
-def kb_additions_path(settings: ReasonerSettings) -> Path:
-    """Where API writes persist when no KB file is configured: apart from the shipped KB, which
-    is never overwritten and, newer after an update, loads with them (:func:`~.kb.read_additions`)."""
-    return settings.index_dir / "kb_additions.json"
 
 
 class ReasonerEngine:
@@ -52,12 +45,18 @@ class ReasonerEngine:
 
     def add_entry(self, entry: KbEntry, *, replace: bool = True) -> KbEntry:
         """Validated KB write, persisted: the whole KB to the configured KB file, else the entry to
-        the additions file (:func:`kb_additions_path`); caches cleared (``replace=False``:
+        the additions file (``settings.kb_additions_path``); caches cleared (``replace=False``:
         :class:`~.kb.KbEntryExistsError` for an existing id)."""
+        path = self.settings.kb_additions_path
+        if self.settings.kb_path is None:
+            with self._lock:  # before the KB changes: a write that cannot be kept changes nothing
+                recorded = usable_additions(path)
+            if not replace and any(e.id == entry.id for e in recorded):
+                raise KbEntryExistsError(f"KB entry {entry.id!r} exists in {path}")  # not loaded here
         added = self.extractor().add_entry(entry, save_to=self.settings.kb_path, replace=replace)
         with self._lock:
             if self.settings.kb_path is None:
-                add_to_additions(kb_additions_path(self.settings), added)
+                add_to_additions(path, added)
             for ex in self._extractors.values():
                 ex.clear_cache()
         return added

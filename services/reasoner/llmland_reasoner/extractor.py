@@ -103,8 +103,8 @@ class SpecExtractor:
                 return replace(hit, spec=spec, cached=True)
             if not key[0]:
                 raise ValueError("empty caption")
-            if (too_long := self._too_long(key[0])) is not None:
-                return self._fallback(caption, started, too_long)
+            if (refused := self._refused(key[0])) is not None:
+                return self._fallback(caption, started, refused)
             future = self._worker.submit(self._under_deadline(self._compute), key, caption)
             return future.result(timeout=self.settings.timeout_s)
         except Exception as exc:  # noqa: BLE001 - the contract is: never raise, fall back
@@ -129,8 +129,8 @@ class SpecExtractor:
                                  cached=True)
             elif not key[0]:
                 out[i] = self._fallback(caption, started, "ValueError: empty caption")
-            elif (too_long := self._too_long(key[0])) is not None:
-                out[i] = self._fallback(caption, started, too_long)
+            elif (refused := self._refused(key[0])) is not None:
+                out[i] = self._fallback(caption, started, refused)
             else:
                 todo.setdefault(key, []).append(i)
         if todo:
@@ -190,8 +190,12 @@ class SpecExtractor:
         self._worker.shutdown(wait=True, cancel_futures=True)
 
     # ---------------------------------------------------------------- internal
-    def _too_long(self, normalized: str) -> str | None:
-        """Why a caption is refused before any work (its cost grows with its length), or None."""
+    def _refused(self, normalized: str) -> str | None:
+        """Why a caption is refused before any work, or None: no word the pipeline reads (only
+        emoji or another script: "🐕", "狗"; the LLM's scoring failed on them and its internal
+        error was the reason sent back), or too long (its cost grows with its length)."""
+        if not caption_words(normalized):
+            return "the caption has no word the reasoner reads (letters a-z or digits)"
         words = len(caption_words(normalized))  # the tokens the pipeline works on ("a/b/c" is three)
         limit = self.settings.max_caption_words
         return None if words <= limit else f"caption of {words} words is longer than max_caption_words ({limit})"

@@ -132,9 +132,21 @@ def read_additions(path: Path) -> list[KbEntry]:
     return KbAdditions.model_validate_json(path.read_text(encoding="utf-8")).entries
 
 
+def usable_additions(path: Path) -> list[KbEntry]:
+    """:func:`read_additions`, and a file that cannot be read moved aside (``.damaged``, logged)
+    rather than blocking every later write: what it held stays there to be mended by hand."""
+    try:
+        return read_additions(path)
+    except (OSError, ValueError) as exc:
+        aside = path.with_name(path.name + ".damaged")
+        os.replace(path, aside)
+        log.error("KB additions in %s unreadable (%s): moved to %s", path, exc, aside)
+        return []
+
+
 def add_to_additions(path: Path, entry: KbEntry) -> None:
     """Record ``entry`` in the additions file (replacing one with its id), atomically."""
-    kept = [e for e in read_additions(path) if e.id != entry.id]
+    kept = [e for e in usable_additions(path) if e.id != entry.id]
     _write_atomically(path, KbAdditions(entries=[*kept, entry]).model_dump_json(indent=1))
 
 

@@ -61,12 +61,17 @@ def _load_kb(settings: ReasonerSettings) -> KnowledgeBase:
     kb = KnowledgeBase.load(settings.kb_path)
     if settings.kb_path is not None or not settings.kb_additions:
         return kb
-    path = settings.index_dir / "kb_additions.json"
+    path = settings.kb_additions_path
     try:
-        added = read_additions(path)
+        recorded = read_additions(path)
     except (OSError, ValueError) as exc:
         log.error("KB additions in %s left out (unreadable): %s", path, exc)
         return kb
+    shipped = {e.id for e in kb.entries}
+    for entry in recorded:
+        if entry.id in shipped:  # the shipped KB has it now: the newer, reviewed entry wins
+            log.warning("KB addition %r left out: the shipped KB %s has an entry with that id", entry.id, kb.version)
+    added = [e for e in recorded if e.id not in shipped]
     for entry in added:
         kb.add(entry)
     if added:

@@ -220,6 +220,15 @@ def test_a_caption_longer_than_the_limit_falls_back_at_once(resources: Resources
     extractor.close()
 
 
+@pytest.mark.parametrize("caption", ["🐕", "狗", "🐕 🚗"])
+def test_a_caption_with_no_word_read_falls_back_with_a_plain_reason(rag: SpecExtractor, caption: str) -> None:
+    """Was: the careful spec, but its reason the LLM scorer's internal error ("ValueError: one
+    log-probability per candidate position is needed"), sent back to an HTTP client."""
+    result = rag.extract_detailed(caption)
+    assert result.spec.source == "fallback" and result.spec.buffer_m >= 5.0
+    assert "no word the reasoner reads" in result.error and "ValueError" not in result.error
+
+
 @pytest.mark.parametrize("caption", ["", "   ", "...", None, 42])
 def test_bad_captions_never_raise(rag: SpecExtractor, caption: object) -> None:
     spec = rag.extract(caption)  # type: ignore[arg-type]

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from llmland_reasoner.engine import ReasonerEngine
 from llmland_reasoner.http_api import create_app
-from llmland_reasoner.kb import read_additions
+from llmland_reasoner.kb import KbEntryExistsError, add_to_additions, read_additions
 from llmland_reasoner.resources import Resources
 from llmland_reasoner.settings import ReasonerSettings
 from llmland_reasoner.upload import check_image, image_size
@@ -395,3 +395,16 @@ def test_fuzz_binary_and_malformed_bodies_find_no_server_errors(base_url: str) -
         response.json()  # always a JSON error body
 
     check()
+
+
+def test_an_id_the_additions_file_holds_is_no_new_entry_even_unloaded(engine: ReasonerEngine) -> None:
+    """A reasoner started with KB_ADDITIONS=false (every `llmland land`/`experiment` one) does not
+    hold the file's entries, but a write of one of their ids is still refused (review: it silently
+    replaced the recorded entry)."""
+    path = engine.settings.kb_additions_path
+    shipped = engine.extractor().resources.kb.get("pedestrian")
+    recorded = shipped.model_copy(update={"id": "only_in_the_file", "label": "only in the file"})
+    add_to_additions(path, recorded)  # another process's write, or one from before a restart
+    with pytest.raises(KbEntryExistsError):
+        engine.add_entry(recorded.model_copy(update={"buffer_m": 9.0}), replace=False)
+    assert [e.buffer_m for e in read_additions(path) if e.id == "only_in_the_file"] == [recorded.buffer_m]

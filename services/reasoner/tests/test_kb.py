@@ -144,3 +144,24 @@ def test_api_additions_load_on_top_of_a_newer_shipped_kb(tmp_path: Path, robot_m
     assert len(_load_kb(ReasonerSettings(index_dir=tmp_path, kb_additions=False))) == len(shipped)
     path.write_text("{not json")
     assert len(_load_kb(ReasonerSettings(index_dir=tmp_path))) == len(shipped)  # damaged: left out, logged
+
+
+def test_an_addition_never_replaces_a_shipped_entry(tmp_path: Path) -> None:
+    """An entry added when the shipped KB lacked its id, which a newer shipped KB then names, is
+    left out: the shipped, reviewed entry wins (review: an old 'quarry' addition hid KB 1.4.1's)."""
+    from llmland_reasoner.resources import _load_kb
+    from llmland_reasoner.settings import ReasonerSettings
+
+    shipped = KnowledgeBase.load()
+    pedestrian = shipped.get("pedestrian")
+    add_to_additions(tmp_path / "kb_additions.json", pedestrian.model_copy(update={"buffer_m": 9.0}))
+    kb = _load_kb(ReasonerSettings(index_dir=tmp_path))
+    assert kb.get("pedestrian") == pedestrian and kb.version == shipped.version
+
+
+def test_a_damaged_additions_file_is_moved_aside_not_a_block(tmp_path: Path, robot_mower: dict[str, object]) -> None:
+    path = tmp_path / "kb_additions.json"
+    path.write_text("{not json")
+    add_to_additions(path, KbEntry.model_validate(robot_mower))  # was: every later write refused
+    assert [e.id for e in read_additions(path)] == [robot_mower["id"]]
+    assert (tmp_path / "kb_additions.json.damaged").read_text() == "{not json"
