@@ -294,7 +294,8 @@ def _add_land_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
     land.add_argument("--rrd", type=writable_file, help="write a Rerun recording of the episode to this file")
     land.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     land.add_argument("--kill", type=fault, action="append", default=[], metavar="SERVICE@SIM_S",
-                      help="fault run: kill a service (vle, reasoner, ...) when the episode reaches SIM_S seconds")
+                      help="fault run: kill a service (vle, reasoner, planner) when the episode reaches SIM_S "
+                           "seconds (SERVICE alone: at 0 s)")
     land.set_defaults(func=cmd_land)
 
 

@@ -116,6 +116,15 @@ class KbEntryExistsError(ValueError):
     ``replace=False``)."""
 
 
+class KbNameTakenError(ValueError):
+    """An add (``replace=False``) whose label or a synonym another entry already has: the new
+    entry would take over captions that name the other ("pedestrian" as a bench's name)."""
+
+
+def _name_key(name: str) -> str:
+    return " ".join(name.lower().split())
+
+
 class KbAdditions(BaseModel):
     """Entries written through the API on top of the shipped KB (``kb_additions.json``): kept
     apart from it, so that a newer shipped KB is loaded with them, never hidden by an old copy."""
@@ -207,11 +216,20 @@ class KnowledgeBase:
         KbEntry.model_validate(new.model_dump())  # re-check even a pre-built model
         if not replace and new.id in self._by_id:
             raise KbEntryExistsError(f"KB entry {new.id!r} exists")
+        if not replace and (taken := self._names_taken(new)):
+            raise KbNameTakenError(f"KB entry {new.id!r}: " + "; ".join(
+                f"{name!r} already names {owner!r}" for name, owner in taken)
+                + " (a name says which entry a caption's word is: one entry per name)")
         kept = [e for e in self._doc.entries if e.id != new.id]
         self._doc = KbDocument(version=_bump(self._doc.version), entries=[*kept, new])
         self._by_id = {e.id: e for e in self._doc.entries}
         log.info("kb entry %s added; kb version now %s", new.id, self._doc.version)
         return new
+
+    def _names_taken(self, new: KbEntry) -> list[tuple[str, str]]:
+        """The names (label, synonyms) of ``new`` that another entry already has, with its id."""
+        owners = {_name_key(n): e.id for e in self._doc.entries if e.id != new.id for n in [e.label, *e.synonyms]}
+        return [(n, owners[_name_key(n)]) for n in [new.label, *new.synonyms] if _name_key(n) in owners]
 
     def to_json(self) -> str:
         return self._doc.model_dump_json(indent=1)

@@ -328,7 +328,7 @@ def test_concurrent_posts_of_one_new_id_add_it_once(base_url: str, engine: Reaso
     monkeypatch.setattr(engine.resources.kb, "add", slow_add)
     kb = httpx.get(f"{base_url}/v1/kb").json()
     entry = dict(next(e for e in kb["entries"] if not e["is_human"] and not e["is_dynamic"]),
-                 id="race_test_shed", label="garden shed", synonyms=[], description="a garden shed")
+                 id="race_test_shed", label="race test shed", synonyms=[], description="a garden shed")
     codes: list[int] = []
     ready = threading.Barrier(4)
 

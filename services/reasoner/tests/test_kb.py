@@ -7,6 +7,7 @@ import pytest
 from llmland_reasoner.kb import (
     KbEntry,
     KbEntryExistsError,
+    KbNameTakenError,
     KnowledgeBase,
     add_to_additions,
     category_problems,
@@ -165,3 +166,14 @@ def test_a_damaged_additions_file_is_moved_aside_not_a_block(tmp_path: Path, rob
     add_to_additions(path, KbEntry.model_validate(robot_mower))  # was: every later write refused
     assert [e.id for e in read_additions(path)] == [robot_mower["id"]]
     assert (tmp_path / "kb_additions.json.damaged").read_text() == "{not json"
+
+
+def test_an_added_entry_may_not_take_another_entrys_name(robot_mower: dict[str, object]) -> None:
+    """A second newcomer added a static 1 m structure named "pedestrian", with "man" and "child"
+    as synonyms, and an animal named "puppy" (201): a name says which entry a caption's word is."""
+    kb = KnowledgeBase.load()
+    for taken in ({"label": "Pedestrian"}, {"synonyms": ["lawn robot", "man"]}):
+        with pytest.raises(KbNameTakenError, match="already names"):
+            kb.add({**robot_mower, **taken}, replace=False)
+    kb.add(robot_mower, replace=False)  # its own names are free
+    kb.add({**robot_mower, "buffer_m": 6.0})  # a replacement (a file edit) keeps its names
