@@ -47,16 +47,18 @@ class ReasonerEngine:
         """Validated KB write, persisted: the whole KB to the configured KB file, else the entry to
         the additions file (``settings.kb_additions_path``); caches cleared (``replace=False``:
         :class:`~.kb.KbEntryExistsError` for an existing id)."""
-        path = self.settings.kb_additions_path
-        if self.settings.kb_path is None:
+        if self.settings.kb_path is not None:
+            added = self.extractor().add_entry(entry, save_to=self.settings.kb_path, replace=replace)
+        else:
+            path = self.settings.kb_additions_path
             with self._lock:  # before the KB changes: a write that cannot be kept changes nothing
                 recorded = usable_additions(path)
             if not replace and any(e.id == entry.id for e in recorded):
                 raise KbEntryExistsError(f"KB entry {entry.id!r} exists in {path}")  # not loaded here
-        added = self.extractor().add_entry(entry, save_to=self.settings.kb_path, replace=replace)
-        with self._lock:
-            if self.settings.kb_path is None:
+            added = self.extractor().add_entry(entry, replace=replace)
+            with self._lock:
                 add_to_additions(path, added)
+        with self._lock:
             for ex in self._extractors.values():
                 ex.clear_cache()
         return added

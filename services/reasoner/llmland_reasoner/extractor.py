@@ -194,9 +194,9 @@ class SpecExtractor:
         """Why a caption is refused before any work, or None: no word the pipeline reads (only
         emoji or another script: "🐕", "狗"; the LLM's scoring failed on them and its internal
         error was the reason sent back), or too long (its cost grows with its length)."""
-        if not caption_words(normalized):
-            return "the caption has no word the reasoner reads (letters a-z or digits)"
         words = len(caption_words(normalized))  # the tokens the pipeline works on ("a/b/c" is three)
+        if not words:
+            return "the caption has no word the reasoner reads (letters a-z or digits)"
         limit = self.settings.max_caption_words
         return None if words <= limit else f"caption of {words} words is longer than max_caption_words ({limit})"
 

@@ -148,8 +148,12 @@ def usable_additions(path: Path) -> list[KbEntry]:
         return read_additions(path)
     except (OSError, ValueError) as exc:
         aside = path.with_name(path.name + ".damaged")
-        os.replace(path, aside)
-        log.error("KB additions in %s unreadable (%s): moved to %s", path, exc, aside)
+        try:
+            os.replace(path, aside)
+        except OSError as moving:  # a read-only folder: the next write says so, not this read
+            log.error("KB additions in %s unreadable (%s), and not moved aside: %s", path, exc, moving)
+        else:
+            log.error("KB additions in %s unreadable (%s): moved to %s", path, exc, aside)
         return []
 
 

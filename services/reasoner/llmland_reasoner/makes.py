@@ -77,10 +77,11 @@ class MakeIndex:
             entry = self._makes.get(tuple(words[i : i + n]))
             if entry is None:
                 continue
-            senses = self.wordnet.senses(" ".join(words[i : i + n]))  # its common-noun senses
+            make = " ".join(words[i : i + n])
+            senses = self.wordnet.senses(make)  # its common-noun senses
             living = any(sense.word_class in LIVING for sense in senses)
             model = 0
-            people_models = PERSON_MODELS.get(" ".join(words[i : i + n]), frozenset())
+            people_models = PERSON_MODELS.get(make, frozenset())
             while model < MODEL_WORDS and i + n + model < len(words) and \
                     self._model_word(words, i + n + model, names_head, living, people_models):
                 model += 1

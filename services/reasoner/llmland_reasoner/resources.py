@@ -15,7 +15,7 @@ from pathlib import Path
 from . import prompts
 from .embedding import DEFAULT_EMBED_NAME, LocalSentenceEmbedding, force_offline, load_sentence_model
 from .grounding import NameIndex
-from .kb import KbEntry, KnowledgeBase, read_additions
+from .kb import KbEntry, KnowledgeBase, usable_additions
 from .lexicon import WordNet
 from .llm import LlamaCppBackend, LlmBackend
 from .llm_worker import WorkerLlmBackend
@@ -57,23 +57,19 @@ def warm_prefixes(settings: ReasonerSettings) -> list[str]:
 def _load_kb(settings: ReasonerSettings) -> KnowledgeBase:
     """The configured KB file, else the shipped KB with the entries written through the API on
     this machine (``settings.kb_additions``; said at WARNING: they change its answers). A damaged
-    additions file is logged and left out: the shipped KB still loads."""
+    additions file is moved aside and logged (:func:`~.kb.usable_additions`): the shipped KB
+    still loads."""
     kb = KnowledgeBase.load(settings.kb_path)
     if settings.kb_path is not None or not settings.kb_additions:
         return kb
     path = settings.kb_additions_path
-    try:
-        recorded = read_additions(path)
-    except (OSError, ValueError) as exc:
-        log.error("KB additions in %s left out (unreadable): %s", path, exc)
-        return kb
     shipped = {e.id for e in kb.entries}
-    for entry in recorded:
+    added: list[KbEntry] = []
+    for entry in usable_additions(path):
         if entry.id in shipped:  # the shipped KB has it now: the newer, reviewed entry wins
             log.warning("KB addition %r left out: the shipped KB %s has an entry with that id", entry.id, kb.version)
-    added = [e for e in recorded if e.id not in shipped]
-    for entry in added:
-        kb.add(entry)
+        else:
+            added.append(kb.add(entry))
     if added:
         log.warning("KB %s: the shipped KB with %d entries written through the API (%s) from %s; "
                     "LLMLAND_REASONER_KB_ADDITIONS=false leaves them out", kb.version, len(added),

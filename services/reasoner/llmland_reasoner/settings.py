@@ -49,11 +49,6 @@ class ReasonerSettings(BaseSettings):
     #: on top of the shipped KB. ``llmland land`` and ``experiment`` set it false: a run flies the
     #: KB as shipped, whatever was added on this machine before
     kb_additions: bool = True
-
-    @property
-    def kb_additions_path(self) -> Path:
-        """Where API writes persist when no ``kb_path`` is set (and are read back from)."""
-        return self.index_dir / "kb_additions.json"
     #: where the retrieval index is persisted, one folder per KB version
     index_dir: Path = Field(default_factory=default_index_dir)
     #: llama.cpp threads. 1 by default: on a 2-core machine shared with the sim and planner,
@@ -95,3 +90,8 @@ class ReasonerSettings(BaseSettings):
     http_port: int = Field(default=8080, ge=1, le=65535)
     api_token: SecretStr | None = None
     max_upload_bytes: int = Field(default=8 * 1024 * 1024, ge=1024)
+
+    @property
+    def kb_additions_path(self) -> Path:
+        """Where API writes persist when no ``kb_path`` is set (and are read back from)."""
+        return self.index_dir / "kb_additions.json"

@@ -308,13 +308,15 @@ class SimService:
         then costs no wall time per tick: its fault run flew 90 s in 246 s of wall at 50 ms a
         tick. The commands flown are the same either way (a gone planner sends none)."""
         if time.perf_counter() - self._gone_checked_at >= PLANNER_RECHECK_S:
-            self._planner_gone = not self._planner_alive()
-            self._gone_checked_at = time.perf_counter()  # from the answer: a query may take a while
+            self._planner_alive()
         return 0.0 if self._planner_gone else DEAD_PLANNER_WAIT_S
 
     def _planner_alive(self) -> bool:
-        """Whether this drone's planner holds its liveliness token (a query, ≤ 1 s)."""
-        return bool(self.bus.alive(alive(self.settings.drone_id, "planner"), PLANNER_ALIVE_QUERY_S))
+        """Whether this drone's planner holds its liveliness token (a query, ≤ 1 s); the answer
+        is kept for :meth:`_missed_planner_wait` (the miss that ended a wait asked already)."""
+        up = bool(self.bus.alive(alive(self.settings.drone_id, "planner"), PLANNER_ALIVE_QUERY_S))
+        self._planner_gone, self._gone_checked_at = not up, time.perf_counter()  # from the answer
+        return up
 
     def _finish(self, mission: MissionGoal) -> None:
         sim, clock, rec = self.sim, self.clock, self.recorder
