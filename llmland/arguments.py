@@ -11,26 +11,27 @@ import tempfile
 from pathlib import Path
 
 from llmland_schemas.keys import validate_drone_id
-from llmland_schemas.messages import LATENCY_MODEL_PATTERN, SCENARIO_PATTERN
+from llmland_schemas.messages import LATENCY_MODEL_PATTERN, MAX_EPISODE_S, SCENARIO_PATTERN
 
 
-def non_negative_int(text: str) -> int:
-    """An integer ≥ 0 (seeds, counts)."""
+def _int_at_least(text: str, low: int) -> int:
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    if value < low:
+        raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
     return value
+
+
+def non_negative_int(text: str) -> int:
+    """An integer ≥ 0 (seeds, counts)."""
+    return _int_at_least(text, 0)
 
 
 def positive_int(text: str) -> int:
     """An integer ≥ 1 (trials, jobs)."""
-    value = non_negative_int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
+    return _int_at_least(text, 1)
 
 
 def positive_seconds(text: str) -> float:
@@ -41,6 +42,15 @@ def positive_seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not math.isfinite(value) or value <= 0.0:
         raise argparse.ArgumentTypeError(f"must be a finite number of seconds > 0, got {text}")
+    return value
+
+
+def episode_seconds(text: str) -> float:
+    """An episode time limit: :func:`positive_seconds` up to :data:`~llmland_schemas.MAX_EPISODE_S`
+    (a mission asking for more is refused by its schema, after the services started)."""
+    value = positive_seconds(text)
+    if value > MAX_EPISODE_S:
+        raise argparse.ArgumentTypeError(f"at most {MAX_EPISODE_S:.0f} s (sim time), got {text}")
     return value
 
 
@@ -58,16 +68,46 @@ def scenario(text: str) -> str:
     return text
 
 
+#: More seeds than any experiment flies (a typo such as ``0-99999999999`` built the list in memory).
+MAX_SEEDS = 100_000
+#: More people than a world is meant to hold (each walks its own path; 10000 never finished).
+MAX_PEDESTRIANS = 50
+#: More drones than one machine runs (three processes each).
+MAX_DRONES = 32
+
+
 def seed_list(text: str) -> list[int]:
-    """Seeds as ``1-20`` or ``1,4,7-9`` (ranges inclusive, increasing, at least one seed)."""
+    """Seeds as ``1-20`` or ``1,4,7-9`` (ranges inclusive, increasing, at least one seed, at most
+    :data:`MAX_SEEDS` in all)."""
     seeds: list[int] = []
     for part in text.split(","):
         lo, dash, hi = part.strip().partition("-")
+        if not lo or (dash and not hi):
+            raise argparse.ArgumentTypeError(f"{part.strip()!r}: seeds are integers >= 0, ranges low-high")
         first, last = non_negative_int(lo), non_negative_int(hi) if dash else None
         if last is not None and last < first:
             raise argparse.ArgumentTypeError(f"range {part.strip()!r} is empty (write it low-high)")
-        seeds += list(range(first, (first if last is None else last) + 1))
+        end = (first if last is None else last) + 1
+        if len(seeds) + end - first > MAX_SEEDS:
+            raise argparse.ArgumentTypeError(f"{text!r}: more than {MAX_SEEDS} seeds")
+        seeds += list(range(first, end))
     return seeds
+
+
+def pedestrian_count(text: str) -> int:
+    """A number of pedestrians, 0 to :data:`MAX_PEDESTRIANS`."""
+    value = non_negative_int(text)
+    if value > MAX_PEDESTRIANS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_PEDESTRIANS} pedestrians, got {value}")
+    return value
+
+
+def drone_count(text: str) -> int:
+    """A number of drones, 1 to :data:`MAX_DRONES`."""
+    value = positive_int(text)
+    if value > MAX_DRONES:
+        raise argparse.ArgumentTypeError(f"at most {MAX_DRONES} drones, got {value}")
+    return value
 
 
 def writable_dir(text: str) -> str:

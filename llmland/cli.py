@@ -8,6 +8,7 @@ import json
 import logging
 import os
 import signal
+import socket
 import sys
 import time
 from collections.abc import Iterator, Mapping
@@ -17,15 +18,18 @@ from pathlib import Path
 from llmland_schemas import EpisodeResult, MissionGoal
 from llmland_schemas.bus import DEFAULT_ENDPOINT
 from llmland_schemas.messages import METHOD_NAMES, WORLD_NAMES
-from llmland_schemas.service import configure_logging, shutdown_event
+from llmland_schemas.service import configure_logging, settings_or_exit, shutdown_event
 
 from .arguments import (
+    drone_count,
     drone_id,
+    episode_seconds,
     fault,
     gguf_file,
     latency_model,
     names_from,
     non_negative_int,
+    pedestrian_count,
     port,
     positive_int,
     positive_seconds,
@@ -34,7 +38,16 @@ from .arguments import (
     writable_dir,
     writable_file,
 )
-from .launch import SERVICE_MODULES, Fleet, SpecsServed, drone_ids, hub_bus, hub_endpoint, raise_keyboard_interrupt
+from .launch import (
+    SERVICE_MODULES,
+    Fleet,
+    SpecsServed,
+    StartupError,
+    drone_ids,
+    hub_bus,
+    hub_endpoint,
+    raise_keyboard_interrupt,
+)
 from .results import summarize
 from .stacks import StackConfig, make_mission, open_stack
 from .view import add_view_parser
@@ -163,9 +176,11 @@ def cmd_up(args: argparse.Namespace) -> int:
     port = args.port
     drones = drone_ids(args.drones) if args.drones else [args.drone_id]
     log_dir = Path(args.log_dir) if args.log_dir else None
+    if "reasoner" in args.services:
+        _reasoner_http_port_free()
     with hub_bus(port) as bus, Fleet(port, drones, log_level=args.service_log_level, log_dir=log_dir) as fleet:
         fleet.start(args.services)
-        fleet.wait_alive(bus, timeout_s=args.start_timeout)
+        fleet.wait_alive(bus, timeout_s=args.start_timeout, interrupted=stop)
         flies = {"sim", "planner"} <= set(args.services) or {"sim", "pilot"} <= set(args.services)
         hint = (f"send a mission with `llmland mission --world open_field --seed 1 --drone-id {drones[0]}`"
                 if flies else "no sim with a planner or pilot here: missions need them (on this bus or another)")
@@ -192,8 +207,23 @@ def _reasoner_http_url() -> str:
     """Where the reasoner started by ``up`` serves HTTP: its own settings, from the same environment."""
     from llmland_reasoner.settings import ReasonerSettings
 
-    settings = ReasonerSettings()
+    settings = settings_or_exit(ReasonerSettings)
     return f"http://{settings.http_host}:{settings.http_port}"
+
+
+def _reasoner_http_port_free() -> None:
+    """:class:`StartupError` when the reasoner's HTTP port is taken (another stack's reasoner: it
+    would exit at once and take this stack down, after ``up`` had printed the other one's address)."""
+    from llmland_reasoner.settings import ReasonerSettings
+
+    settings = settings_or_exit(ReasonerSettings)
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        try:
+            probe.bind((settings.http_host, settings.http_port))
+        except OSError as exc:
+            raise StartupError(f"the reasoner's HTTP port {settings.http_host}:{settings.http_port} is taken "
+                               f"({exc.strerror}): another stack? Give this one LLMLAND_REASONER_HTTP_PORT=<free port> "
+                               "(and --port)") from None
 
 
 def cmd_mission(args: argparse.Namespace) -> int:
@@ -205,7 +235,10 @@ def cmd_mission(args: argparse.Namespace) -> int:
                          wall_timeout_s=args.wall_timeout)
     try:
         result = send_mission(req, _csv(args.connect) or [])
-    except (MissionError, ValueError) as exc:
+    except MissionError as exc:
+        log.error("%s", exc)
+        return exc.exit_code
+    except ValueError as exc:
         log.error("%s", exc)
         return 2
     sys.stderr.write(summary_line(result) + "\n")
@@ -252,8 +285,8 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
                         "conservative (geometry, every obstacle a person), reference (no obstacles)")
     p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep",
                    help="lockstep (default: latency-faithful, faster than real time) or realtime")
-    p.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
-    p.add_argument("--pedestrians", type=non_negative_int, default=None,
+    p.add_argument("--timeout", type=episode_seconds, default=90.0, help="episode time limit (sim seconds)")
+    p.add_argument("--pedestrians", type=pedestrian_count, default=None,
                    help="number of pedestrians (default: the world's)")
     p.add_argument("--specs", choices=["pipeline", "oracle", "none"], default="pipeline",
                    help="semantic methods: where specs come from — pipeline (VLE captions → reasoner), "
@@ -324,7 +357,7 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
                      help="exp3: another GGUF model to compare (repeat)")
     exp.add_argument("--jobs", type=positive_int, default=1,
                      help="episodes in parallel, each its own stack and bus port")
-    exp.add_argument("--timeout", type=positive_seconds, default=90.0,
+    exp.add_argument("--timeout", type=episode_seconds, default=90.0,
                      help="episode time limit (sim seconds; default 90, the paper's; a landing takes 20-60 s)")
     exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
     again = exp.add_mutually_exclusive_group()
@@ -340,11 +373,12 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
     up.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
-    up.add_argument("--drones", type=positive_int, default=None, metavar="N",
+    up.add_argument("--drones", type=drone_count, default=None, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
     up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
-    up.add_argument("--log-dir", help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")
-    up.add_argument("--start-timeout", type=float, default=180.0, help="seconds to wait for every service")
+    up.add_argument("--log-dir", type=writable_dir,
+                    help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")
+    up.add_argument("--start-timeout", type=positive_seconds, default=180.0, help="seconds to wait for every service")
     up.set_defaults(func=cmd_up)
 
 
@@ -359,10 +393,11 @@ def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
                          help=f"comma-separated endpoints of the running stack or a router (client mode; default "
                               f"ZENOH_CONNECT or {DEFAULT_ENDPOINT}; a tls/ endpoint reads ZENOH_TLS_ROOT_CA, "
                               "ZENOH_TLS_CERTIFICATE, ZENOH_TLS_PRIVATE_KEY)")
-    mission.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
+    mission.add_argument("--timeout", type=episode_seconds, default=90.0, help="episode time limit (sim seconds)")
     mission.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep")
-    mission.add_argument("--pedestrians", type=non_negative_int, default=None)
-    mission.add_argument("--wall-timeout", type=float, default=None, help="give up after this many wall seconds")
+    mission.add_argument("--pedestrians", type=pedestrian_count, default=None)
+    mission.add_argument("--wall-timeout", type=positive_seconds, default=None,
+                         help="give up after this many wall seconds (the episode is then stopped)")
     mission.add_argument("--strict", action="store_true", help="exit 1 unless the landing succeeded")
     mission.set_defaults(func=cmd_mission)
 
@@ -380,8 +415,8 @@ def _add_ceiling_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
                                              "(no method that keeps the limit can land where it never does)")
     ceiling.add_argument("--worlds", type=names_from(WORLDS), default=",".join(WORLDS), help="comma-separated")
     ceiling.add_argument("--seeds", type=seed_list, default="1-50", help="e.g. 1-50 or 1,4,7-9")
-    ceiling.add_argument("--timeout", type=positive_seconds, default=90.0, help="episode time limit (sim seconds)")
-    ceiling.add_argument("--pedestrians", type=non_negative_int, default=None,
+    ceiling.add_argument("--timeout", type=episode_seconds, default=90.0, help="episode time limit (sim seconds)")
+    ceiling.add_argument("--pedestrians", type=pedestrian_count, default=None,
                          help="number of pedestrians (default: the "
                                                                          "world's; exp 1 flies 1)")
     ceiling.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -418,6 +453,9 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(args.func(args))
     except KeyboardInterrupt:
         sys.exit(130)
+    except StartupError as exc:  # a service's own log says why; no traceback of the CLI's on top
+        log.error("%s", exc)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -28,6 +28,8 @@ class EpisodeRunner:
         self._results: dict[str, EpisodeResult] = {}
         self._started: set[str] = set()
         self._aborted = False
+        self._latest: str | None = None  # the episode of the newest state seen
+        self._mine: set[str | None] = {None}  # the episodes sent here
         bus.subscribe(key(drone_id, Topic.RESULT), EpisodeResult, self._on_result)
         bus.subscribe(key(drone_id, Topic.STATE), VehicleState, self._on_state)
 
@@ -37,10 +39,19 @@ class EpisodeRunner:
             self._cond.notify_all()
 
     def _on_state(self, _k: str, msg: VehicleState) -> None:
+        self._latest = msg.episode_id
         if msg.episode_id not in self._started:
             with self._cond:
                 self._started.add(msg.episode_id)
                 self._cond.notify_all()
+
+    def stop(self, mission: MissionGoal) -> None:
+        """Ask the sim to end ``mission``: the running episode is aborted, a queued one not flown."""
+        self.bus.publish(key(self.drone_id, Topic.MISSION), mission.model_copy(update={"command": "stop"}))
+
+    def busy_with(self) -> str | None:
+        """The episode this drone's sim flies now when it is not one sent here (the newest state's)."""
+        return self._latest if self._latest not in self._mine else None
 
     def abort(self) -> None:
         """Make a waiting and every later :meth:`run` raise ``RuntimeError`` (an interrupted experiment)."""
@@ -64,20 +75,23 @@ class EpisodeRunner:
         wall_timeout_s = wall_timeout_s or max(120.0, 20.0 * mission.timeout_s)
         deadline = time.monotonic() + wall_timeout_s
         check = watch or (lambda: None)
+        self._mine.add(mission.episode_id)
         with self._cond:
             while mission.episode_id not in self._started and mission.episode_id not in self._results:
                 self._check_aborted()
                 check()
-                self.bus.publish(mission_key, mission)
                 if time.monotonic() > deadline:
-                    raise TimeoutError(f"the sim never started episode {mission.episode_id}")
+                    self.stop(mission)  # it may still be queued behind another episode: not to be flown
+                    raise TimeoutError(f"the sim did not start episode {mission.episode_id} within "
+                                       f"{wall_timeout_s:.0f} s of wall time")
+                self.bus.publish(mission_key, mission)
                 self._cond.wait(0.5)
             while mission.episode_id not in self._results:
                 self._check_aborted()
                 check()
                 left = deadline - time.monotonic()
                 if left <= 0:
-                    self.bus.publish(mission_key, mission.model_copy(update={"command": "stop"}))
+                    self.stop(mission)
                     raise TimeoutError(f"no result for episode {mission.episode_id} after {wall_timeout_s:.0f} s")
                 self._cond.wait(min(left, 1.0))
             return self._results.pop(mission.episode_id)

@@ -26,6 +26,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import zenoh
 from llmland_schemas import Topic, alive, any_drone, drone_of
 from llmland_schemas.bus import LOOPBACK_LISTEN, Bus, ZenohSettings
 from llmland_schemas.keys import ALIVE_ANY_DRONE, ALIVE_GROUND, SHARED_SERVICES, ground_alive, validate_drone_id
@@ -56,9 +57,19 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+class StartupError(RuntimeError):
+    """A stack could not start: a service exited or was not ready in time, or the hub's port is
+    taken (a message for the user, not a traceback)."""
+
+
 def hub_bus(port: int) -> Bus:
-    """The CLI's own session: it listens (on loopback) and the children connect to it."""
-    return Bus(ZenohSettings(mode="peer", listen=[hub_endpoint(port)], connect=[]))
+    """The CLI's own session: it listens (on loopback) and the children connect to it.
+    :class:`StartupError` when it cannot listen there (the port is taken: another stack?)."""
+    try:
+        return Bus(ZenohSettings(mode="peer", listen=[hub_endpoint(port)], connect=[]))
+    except zenoh.ZError as exc:
+        raise StartupError(f"cannot listen on {hub_endpoint(port)} ({exc}): another stack on this port? "
+                           "Give another one with --port") from None
 
 
 def hub_endpoint(port: int) -> str:
@@ -153,14 +164,17 @@ class Stack:
             )
             log.info("started %s (pid %d)", name, self.procs[name].pid)
 
-    def wait_alive(self, bus: Bus, timeout_s: float = 60.0) -> None:
-        """Block until every started service has declared its liveliness token."""
+    def wait_alive(self, bus: Bus, timeout_s: float = 60.0, interrupted: threading.Event | None = None) -> None:
+        """Block until every started service has declared its liveliness token (``interrupted``:
+        see :meth:`Fleet.wait_alive`)."""
         want = {alive_key(n, self.drone_id) for n in self.procs}
         shared = any(n in SHARED_SERVICES for n in self.procs)
         deadline = time.monotonic() + timeout_s
         while True:
+            if interrupted is not None and interrupted.is_set():
+                raise StartupError("interrupted during start-up: stopping the services")
             if self._stopped.is_set():
-                raise RuntimeError("stack stopped during start-up")
+                raise StartupError("stack stopped during start-up")
             found = bus.alive(ALIVE_ANY_DRONE, timeout_s=0.5)
             if shared:
                 found |= bus.alive(ALIVE_GROUND, timeout_s=0.5)
@@ -168,9 +182,10 @@ class Stack:
                 return
             for name, proc in self.procs.items():
                 if proc.poll() is not None:
-                    raise RuntimeError(f"service {name} exited with code {proc.returncode} during start-up")
+                    raise StartupError(f"service {name} exited with code {proc.returncode} during start-up "
+                                       "(its log says why)")
             if time.monotonic() > deadline:
-                raise TimeoutError(f"services not ready after {timeout_s} s: {sorted(want - found)}")
+                raise StartupError(f"services not ready after {timeout_s:.0f} s: {sorted(want - found)}")
             time.sleep(0.1)
 
     def stop(self, grace_s: float = 5.0) -> None:
@@ -246,11 +261,13 @@ class Fleet:
             out.update({f"{d}/{n}": p for n, p in st.procs.items()})
         return out
 
-    def wait_alive(self, bus: Bus, timeout_s: float = 60.0) -> None:
+    def wait_alive(self, bus: Bus, timeout_s: float = 60.0, interrupted: threading.Event | None = None) -> None:
+        """Every stack's :meth:`Stack.wait_alive`; ``interrupted`` set (Ctrl-C, SIGTERM to ``up``)
+        ends the wait at once with :class:`StartupError` (it waited until every service was up)."""
         deadline = time.monotonic() + timeout_s
         for st in self.stacks:
             if st.procs:
-                st.wait_alive(bus, timeout_s=max(1.0, deadline - time.monotonic()))
+                st.wait_alive(bus, timeout_s=max(1.0, deadline - time.monotonic()), interrupted=interrupted)
 
     def stop(self, grace_s: float = 5.0) -> None:
         with stop_signals_deferred():

@@ -25,10 +25,23 @@ log = logging.getLogger(__name__)
 
 #: how long to wait for the drone's services to show up before giving up (s)
 ALIVE_TIMEOUT_S = 10.0
+#: while waiting for a result: how often (s, wall) to ask whether the drone's sim is still alive
+SIM_CHECK_S = 2.0
+#: how long (s) one such liveliness query may take
+SIM_QUERY_S = 1.0
 
 
 class MissionError(RuntimeError):
     """The stack is not there or cannot fly this mission (a message for the user)."""
+
+    #: the command's exit status: 2 before the mission flew (no stack, a wrong drone or method)
+    exit_code = 2
+
+
+class MissionLostError(MissionError):
+    """The mission was sent but no result will come (the drone's sim is gone, the wall limit passed)."""
+
+    exit_code = 1
 
 
 @dataclass(frozen=True)
@@ -91,7 +104,40 @@ def send_mission(req: MissionRequest, connect: list[str]) -> EpisodeResult:
         wait_for_services(bus, cfg, req.drone_id)
         log.info("sending mission %s to drone %s via %s", mission.episode_id, req.drone_id,
                  ", ".join(settings.connect))
+        runner = EpisodeRunner(bus, req.drone_id)
         try:
-            return EpisodeRunner(bus, req.drone_id).run(mission, req.wall_timeout_s)
+            return runner.run(mission, req.wall_timeout_s, watch=SimWatch(bus, runner, req.drone_id))
         except TimeoutError as exc:
-            raise MissionError(str(exc)) from None
+            raise MissionLostError(str(exc)) from None
+        except KeyboardInterrupt:  # Ctrl-C: the episode is not left flying (or queued) for no one
+            runner.stop(mission)
+            log.warning("interrupted: asked drone %s to stop episode %s", req.drone_id, mission.episode_id)
+            raise
+
+
+class SimWatch:
+    """Called while a mission waits (:meth:`EpisodeRunner.run`'s ``watch``): ends the wait with a
+    :class:`MissionError` once the drone's sim is gone (its stack stopped or crashed: no result
+    will come; the wait was up to 30 min), and says once when the drone is busy with another
+    episode (the mission waits its turn)."""
+
+    def __init__(self, bus: Bus, runner: EpisodeRunner, drone_id: str) -> None:
+        self.bus, self.runner, self.drone_id = bus, runner, drone_id
+        self._checked_at = time.monotonic()
+        self._told_busy = False
+
+    def __call__(self) -> None:
+        busy = self.runner.busy_with()
+        if busy is not None and not self._told_busy:
+            self._told_busy = True
+            log.info("drone %s is flying episode %s: this mission waits until it ends", self.drone_id, busy)
+        if time.monotonic() - self._checked_at < SIM_CHECK_S:
+            return
+        self._checked_at = time.monotonic()
+        try:
+            up = bool(self.bus.alive(alive_key("sim", self.drone_id), SIM_QUERY_S))
+        except zenoh.ZError:  # the session to the hub is broken: no result can reach us either
+            up = False
+        if not up:
+            raise MissionLostError(f"drone {self.drone_id}'s sim is gone (its stack stopped or crashed): no result "
+                               "will come")

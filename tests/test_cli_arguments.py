@@ -38,11 +38,22 @@ from llmland.cli import build_parser
     (["land", "--kill", "sim@5"], "the sim is the episode"),
     # were tracebacks (a second newcomer): a file that is no model, a negative or zero fleet
     (["land", "--llm-model", "README.md"], "is no GGUF model file"),
-    (["up", "--drones", "-2"], "--drones: must be >= 0"),
+    (["up", "--drones", "-2"], "--drones: must be >= 1"),  # said ">= 0" (a third newcomer)
     (["up", "--drones", "0"], "--drones: must be >= 1"),
+    # a third newcomer: past the CLI, then refused by the schema or the OS (tracebacks), or unbounded
+    (["land", "--timeout", "4000"], "--timeout: at most 3600 s"),
+    (["experiment", "exp1", "--timeout", "4000", "--out", "{tmp}"], "--timeout: at most 3600 s"),
+    (["mission", "--world", "open_field", "--seed", "1", "--wall-timeout", "-1"], "--wall-timeout: must be"),
+    (["up", "--start-timeout", "nan"], "--start-timeout: must be"),
+    (["up", "--log-dir", "{tmp}/file.txt"], "--log-dir: cannot create"),
+    (["ceiling", "--seeds", "0-99999999999"], "more than 100000 seeds"),
+    (["ceiling", "--seeds", "1-"], "ranges low-high"),
+    (["ceiling", "--pedestrians", "300"], "at most 50 pedestrians"),
+    (["up", "--drones", "1000"], "at most 32 drones"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "file.txt").write_text("a file, not a folder")
     with pytest.raises(SystemExit) as exit_:
         build_parser().parse_args([a.replace("{tmp}", str(tmp_path)) for a in argv])
     assert exit_.value.code == 2
@@ -82,3 +93,32 @@ def test_checking_an_out_folder_creates_nothing(tmp_path: Path) -> None:
     out = tmp_path / "a" / "b"
     args = build_parser().parse_args(["experiment", "exp1", "--out", str(out)])
     assert args.out == str(out) and not (tmp_path / "a").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_a_taken_reasoner_http_port_stops_up_before_it_starts(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A second `up` beside a running stack printed the other stack's API address, then its reasoner
+    could not bind and took the stack down; now it is refused first, naming the setting to change."""
+    import socket
+
+    import llmland.cli as cli
+    from llmland.launch import StartupError
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        monkeypatch.setenv("LLMLAND_REASONER_HTTP_PORT", str(taken.getsockname()[1]))
+        with pytest.raises(StartupError, match="LLMLAND_REASONER_HTTP_PORT"):
+            cli._reasoner_http_port_free()
+
+
+def test_bad_service_settings_are_one_line_each(monkeypatch: pytest.MonkeyPatch,
+                                                caplog: pytest.LogCaptureFixture) -> None:
+    from llmland_reasoner.settings import ReasonerSettings
+    from llmland_schemas.service import BAD_SETTINGS_EXIT, settings_or_exit
+
+    monkeypatch.setenv("LLMLAND_REASONER_HTTP_PORT", "abc")
+    with pytest.raises(SystemExit) as exit_:
+        settings_or_exit(ReasonerSettings)
+    assert exit_.value.code == BAD_SETTINGS_EXIT
+    assert "bad setting LLMLAND_REASONER_HTTP_PORT" in caplog.text and "Traceback" not in caplog.text
+

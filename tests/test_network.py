@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ipaddress
 import json
+import subprocess
 import threading
 import time
 from collections.abc import Iterator
@@ -17,7 +18,7 @@ from llmland_schemas import REASONER_SPEC_QUERY, Topic, key
 
 from llmland.launch import Fleet, free_port, hub_bus, hub_endpoint
 
-from .conftest import run_cli
+from .conftest import BIN, REPO, run_cli
 
 pytestmark = pytest.mark.integration
 
@@ -113,3 +114,48 @@ def test_mission_without_a_stack_says_what_is_missing() -> None:
                    timeout=120)
     assert proc.returncode == 2
     assert "cannot reach the bus" in proc.stderr
+
+
+def _mission_cmd(endpoint: str, drone: str, *extra: str) -> list[str]:
+    return [str(BIN / "llmland"), "mission", "--world", "open_field", "--seed", "2", "--method", "baseline",
+            "--drone-id", drone, "--connect", endpoint, *extra]
+
+
+def test_a_mission_that_waits_too_long_is_stopped_not_flown_later(running: tuple[int, Fleet]) -> None:
+    """A mission queued behind another one says so, and when its wall limit passes it is stopped:
+    the sim does not fly it afterwards for no one (it did: the next mission then waited for it)."""
+    port, fleet = running
+    endpoint = hub_endpoint(port)
+    first = subprocess.Popen(_mission_cmd(endpoint, "d0", "--timeout", "40"), stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        time.sleep(8.0)  # the first is flying
+        second = run_cli(*_mission_cmd(endpoint, "d0", "--wall-timeout", "4")[1:], timeout=120)
+        assert second.returncode == 1, second.stderr[-2000:]
+        assert "is flying episode" in second.stderr and "did not start episode" in second.stderr, second.stderr
+        out, err = first.communicate(timeout=600)
+    finally:
+        first.kill()
+    assert first.returncode == 0, err[-2000:]
+    sim_log = fleet.drones["d0"].log_dir
+    assert sim_log is not None
+    time.sleep(1.0)
+    assert "was stopped before it started: not flown" in (sim_log / "sim.log").read_text()
+
+
+def test_a_mission_whose_sim_dies_ends_at_once(running: tuple[int, Fleet]) -> None:
+    """The drone's sim gone mid-mission (its stack crashed or stopped): the client says so within
+    seconds, exit 1 (it waited up to 30 min). Last in this module: it kills d1's sim."""
+    port, fleet = running
+    proc = subprocess.Popen(_mission_cmd(hub_endpoint(port), "d1", "--timeout", "60"), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        time.sleep(8.0)
+        fleet.procs()["d1/sim"].kill()
+        killed_at = time.monotonic()
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1, err[-2000:]
+    assert "sim is gone" in err and time.monotonic() - killed_at < 20.0, err[-2000:]
+

@@ -19,7 +19,20 @@ log = logging.getLogger(__name__)
 
 
 def _name(row: dict[str, Any]) -> str:
-    return row["method"] + (f"\n{row['variant']}" if row.get("variant") else "")
+    """A trial row's or a summary row's group: the method, and exp3's LLM row (trials.csv names it
+    ``variant``, summary.json ``llm``; reading only ``variant`` drew every exp3 bar at one place)."""
+    variant = row.get("variant") or row.get("llm")
+    return row["method"] + (f"\n{variant}" if variant else "")
+
+
+#: Longest tick label (characters) drawn level; longer ones are slanted so they do not overlap.
+LEVEL_LABEL_CHARS = 14
+
+
+def _tick_labels(ax: Any, positions: list[float], names: list[str]) -> None:
+    """Tick labels at ``positions``: slanted when long (exp3's LLM rows), one line per part."""
+    slant = max((len(part) for n in names for part in n.split("\n")), default=0) > LEVEL_LABEL_CHARS
+    ax.set_xticks(positions, names, fontsize=8, rotation=25 if slant else 0, ha="right" if slant else "center")
 
 
 def success_by_method(summary: dict[str, Any], path: Path) -> None:
@@ -32,7 +45,7 @@ def success_by_method(summary: dict[str, Any], path: Path) -> None:
         vals = {_name(r): 100 * (r["success_rate"] or 0.0) for r in rows if r["world"] == world}
         xs = [j + i * width for j in range(len(names))]
         ax.bar(xs, [vals.get(n, 0.0) for n in names], width, label=world)
-    ax.set_xticks([j + width * (len(worlds) - 1) / 2 for j in range(len(names))], names, fontsize=8)
+    _tick_labels(ax, [j + width * (len(worlds) - 1) / 2 for j in range(len(names))], names)
     ax.set_ylabel("success %")
     ax.set_ylim(0, 100)
     ax.legend(fontsize=8)
@@ -67,9 +80,9 @@ def spec_latency(rows: list[dict[str, str]], path: Path) -> None:
     if not groups:
         return
     fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(groups)), 4.0))
-    ax.boxplot(list(groups.values()), tick_labels=list(groups), showfliers=True)
+    ax.boxplot(list(groups.values()), showfliers=True)
+    _tick_labels(ax, [k + 1.0 for k in range(len(groups))], list(groups))
     ax.set_ylabel("mean spec latency per trial (ms)")
-    ax.tick_params(axis="x", labelsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

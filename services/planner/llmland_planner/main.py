@@ -26,7 +26,7 @@ from llmland_schemas import (
 )
 from llmland_schemas.bus import Bus
 from llmland_schemas.frames import CameraFrame, decode_frame
-from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
+from llmland_schemas.service import configure_logging, settings_or_exit, shutdown_event, watch_launcher
 
 from .planner import Planner
 from .settings import PlannerSettings
@@ -203,7 +203,7 @@ class PlannerService:
 def main() -> None:
     configure_logging()
     watch_launcher()
-    settings = PlannerSettings()
+    settings = settings_or_exit(PlannerSettings)
     stop = shutdown_event()
     with Bus() as bus:
         service = PlannerService(settings, bus)

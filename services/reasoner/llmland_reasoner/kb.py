@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import stat
 import tempfile
 from importlib import resources
 from pathlib import Path
@@ -164,10 +165,19 @@ def add_to_additions(path: Path, entry: KbEntry) -> None:
 
 
 def _write_atomically(path: Path, text: str) -> None:
-    """A temporary file in the same folder, then rename: a reader never sees half a file."""
+    """A temporary file in the same folder, then rename: a reader never sees half a file. The file
+    keeps the permissions it had (a new one gets what the umask gives): ``mkstemp`` makes 0600, so
+    a KB file readable by others became readable by its owner only."""
     path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        mode = stat.S_IMODE(path.stat().st_mode)
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        mode = 0o666 & ~umask
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
+        os.fchmod(fd, mode)
         with os.fdopen(fd, "w", encoding="utf-8") as handle:
             handle.write(text)
             handle.flush()

@@ -11,7 +11,7 @@ import logging
 import uvicorn
 from llmland_schemas.bus import Bus
 from llmland_schemas.keys import ground_alive
-from llmland_schemas.service import configure_logging, watch_launcher
+from llmland_schemas.service import configure_logging, settings_or_exit, watch_launcher
 
 from .bus_service import ReasonerBusService, caption_via_vle
 from .engine import ReasonerEngine
@@ -24,7 +24,7 @@ log = logging.getLogger("llmland.reasoner")
 def main() -> None:
     configure_logging()
     watch_launcher()
-    settings = ReasonerSettings()
+    settings = settings_or_exit(ReasonerSettings)
     old_copy = settings.index_dir / "knowledge_base.json"  # where API writes went before kb_additions.json
     if settings.kb_path is None and old_copy.exists():
         log.warning("%s (a whole KB saved by an older version's API writes) is no longer loaded: it hid "

@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import json
+import stat
 from pathlib import Path
 
 import pytest
@@ -92,6 +93,16 @@ def test_add_bumps_version_and_save_load_round_trips(tmp_path: Path, robot_mower
     again = KnowledgeBase.load(target)
     assert again.version == kb.version
     assert again.entries == kb.entries
+
+
+def test_a_saved_kb_keeps_its_file_permissions(tmp_path: Path) -> None:
+    """A write through the API made a 0644 KB file 0600 (the temporary file's mode)."""
+    kb = KnowledgeBase.load()
+    target = tmp_path / "kb.json"
+    kb.save(target)
+    target.chmod(0o644)
+    kb.save(target)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o644
 
 
 def test_default_path_is_inside_the_package() -> None:

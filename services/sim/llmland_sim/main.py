@@ -46,7 +46,7 @@ from llmland_schemas import (
 )
 from llmland_schemas.bus import Bus
 from llmland_schemas.frames import CameraFrame, encode_frame
-from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
+from llmland_schemas.service import configure_logging, settings_or_exit, shutdown_event, watch_launcher
 
 from .mailbox import CommandMailbox
 from .perception_clock import LatencyModel, PerceptionClock
@@ -86,6 +86,9 @@ class SimService:
         self.current: MissionGoal | None = None
         self.clock: PerceptionClock | None = None
         self.walls = WallTimes()
+        #: episodes stopped before they started (``llmland mission`` interrupted or timed out while
+        #: queued behind another episode): skipped, not flown for no one
+        self._cancelled: set[str] = set()
         self._planner_ok = True
         self._planner_gone = False  # after a miss: the planner's liveliness token is gone
         self._gone_checked_at = -math.inf  # when that was last asked (perf_counter, s)
@@ -105,6 +108,8 @@ class SimService:
         if msg.command == "stop":
             if self.current is not None and msg.episode_id in (self.current.episode_id, "*"):
                 self.sim.stop()
+            elif msg.episode_id != "*":  # a mission still queued behind the running one: not flown
+                self._cancelled.add(msg.episode_id)
             return
         if self.current is not None and self.current.episode_id == msg.episode_id:
             return  # a repeated start for the running episode
@@ -137,6 +142,10 @@ class SimService:
             if mission.episode_id in seen:
                 continue
             seen.add(mission.episode_id)
+            if mission.episode_id in self._cancelled:
+                self._cancelled.discard(mission.episode_id)
+                log.info("mission %s was stopped before it started: not flown", mission.episode_id)
+                continue
             self.run_episode(mission)
 
     def run_episode(self, mission: MissionGoal) -> None:
@@ -153,6 +162,8 @@ class SimService:
             with self.walls.time("physics"):
                 self.sim.apply_command(cmd)
                 self.sim.step()
+        if self.stop.is_set() and not self.sim.done:
+            self.sim.stop()  # the service is shutting down: the episode is aborted, not timed out
         self._finish(mission)
 
     def _begin(self, mission: MissionGoal) -> MissionGoal:
@@ -359,7 +370,7 @@ class Schedule:
     def __init__(self, camera_hz: float, truth_hz: float, down_camera_hz: float = 0.0) -> None:
         rates = {"camera": camera_hz, "truth": truth_hz, "down_camera": down_camera_hz}
         self._period = {k: 1.0 / hz if hz > 0 else math.inf for k, hz in rates.items()}
-        self._next = {k: 0.0 for k in rates}
+        self._next = {k: 0.0 if hz > 0 else math.inf for k, hz in rates.items()}  # 0 Hz: never (was once, at 0 s)
 
     def _due(self, what: str, t_s: float) -> bool:
         if t_s + 1e-9 < self._next[what]:
@@ -380,7 +391,7 @@ class Schedule:
 def main() -> None:
     configure_logging()
     watch_launcher()
-    settings = SimSettings()
+    settings = settings_or_exit(SimSettings)
     stop = shutdown_event()
     with Bus() as bus:
         service = SimService(settings, bus, stop)

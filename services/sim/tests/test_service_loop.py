@@ -166,3 +166,50 @@ def test_an_abstention_is_flown_as_a_missing_command_at_once() -> None:
     result = _fly_with(_AbstainingPlannerBus(seq=3), lockstep_timeout_s=5.0, lockstep_max_wait_s=300.0)
     assert result.commands_missing == 1
     assert time.perf_counter() - started < 4.0  # not one 5 s wait
+
+
+def _results(bus: _LoopbackBus) -> list[EpisodeResult]:
+    return [m for _k, m in bus.log if isinstance(m, EpisodeResult)]
+
+
+def test_an_episode_cut_short_by_a_shutdown_is_aborted_not_timed_out() -> None:
+    """SIGTERM to the stack mid-flight was reported as a time-out (the limit had not passed)."""
+    bus, stop = _LoopbackBus(), threading.Event()
+    service = SimService(SimSettings(renderer="tiny", camera_hz=0.0, down_camera_hz=0.0), bus, stop)  # type: ignore[arg-type]
+    real_publish = bus.publish
+
+    def publish(k: str, msg: BaseModel, *, express: bool = False) -> None:
+        real_publish(k, msg, express=express)
+        if isinstance(msg, VehicleState) and msg.seq == 10:
+            stop.set()  # the service is told to shut down, 0.2 s into a 30 s episode
+
+    bus.publish = publish  # type: ignore[method-assign]
+    try:
+        service.run_episode(MissionGoal(episode_id="e", world="open_field", seed=1, method="baseline",
+                                        clock="lockstep", timeout_s=30.0))
+    finally:
+        service.sim.close()
+    (result,) = _results(bus)
+    assert result.outcome == "aborted" and result.sim_time_s < 1.0, result
+
+
+def test_a_mission_stopped_while_queued_is_not_flown() -> None:
+    """`llmland mission` interrupted, or past its wall limit, while its mission waits behind another
+    episode: the sim used to fly it later anyway, for no one."""
+    bus, stop = _LoopbackBus(), threading.Event()
+    service = SimService(SimSettings(renderer="tiny", camera_hz=0.0, down_camera_hz=0.0), bus, stop)  # type: ignore[arg-type]
+    mission = MissionGoal(episode_id="queued", world="open_field", seed=1, method="baseline", clock="lockstep",
+                          timeout_s=0.2)
+    service._on_mission("", mission)  # queued (nothing runs yet in this test: the serve loop is not started)
+    service.current = mission.model_copy(update={"episode_id": "running"})  # another episode flies
+    service._on_mission("", mission.model_copy(update={"command": "stop"}))
+    service.current = None
+    worker = threading.Thread(target=service.serve)
+    worker.start()
+    try:
+        time.sleep(1.0)
+    finally:
+        stop.set()
+        worker.join(timeout=10)
+        service.sim.close()
+    assert _results(bus) == []  # not flown

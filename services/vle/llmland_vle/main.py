@@ -18,7 +18,7 @@ import logging
 import sys
 
 from llmland_schemas.bus import Bus
-from llmland_schemas.service import configure_logging, shutdown_event, watch_launcher
+from llmland_schemas.service import configure_logging, settings_or_exit, shutdown_event, watch_launcher
 
 from . import bench
 from .training import cli as training_cli
@@ -36,7 +36,7 @@ def serve(_args: argparse.Namespace | None = None) -> int:
 
     configure_logging()
     watch_launcher()
-    settings = VleSettings()
+    settings = settings_or_exit(VleSettings)
     stop = shutdown_event()
     with Bus() as bus:
         service = VleService(settings, bus)

@@ -21,6 +21,8 @@ SCHEMA_VERSION: Literal[1] = 1
 
 #: The paper's default keep-out buffers (LLM-Land abstract): pedestrians 3 m, vehicles 5 m,
 #: with the minimum altitude (m) to overfly them.
+#: The longest episode a mission may ask for (sim seconds).
+MAX_EPISODE_S = 3600.0
 PERSON_BUFFER_M = 3.0
 PERSON_Z_MIN_M = 3.0
 VEHICLE_BUFFER_M = 5.0
@@ -354,7 +356,7 @@ class MissionGoal(Envelope):
     seed: NonNegativeInt = 1
     method: MethodName = "reference"
     clock: ClockMode = "lockstep"
-    timeout_s: Annotated[FiniteFloat, Field(gt=0, le=3600)] = 60.0
+    timeout_s: Annotated[FiniteFloat, Field(gt=0, le=MAX_EPISODE_S)] = 60.0
     start_m: Vec3 | None = None  # filled by the sim from the world when None
     target_m: Vec3 | None = None
     n_pedestrians: NonNegativeInt | None = None

@@ -7,6 +7,10 @@ import os
 import signal
 import threading
 import time
+from typing import TypeVar
+
+from pydantic import ValidationError
+from pydantic_settings import BaseSettings
 
 
 def configure_logging(level: str | None = None) -> None:
@@ -15,6 +19,27 @@ def configure_logging(level: str | None = None) -> None:
         level=(level or os.environ.get("LLMLAND_LOG_LEVEL", "INFO")).upper(),
         format="%(asctime)s %(levelname).1s %(name)s: %(message)s",
     )
+
+
+#: The exit status of a service whose settings are invalid (a usage error, like argparse's).
+BAD_SETTINGS_EXIT = 2
+
+_S = TypeVar("_S", bound=BaseSettings)
+
+
+def settings_or_exit(cls: type[_S]) -> _S:
+    """``cls()`` (a service's pydantic-settings, read from its ``LLMLAND_<SERVICE>_*`` environment),
+    or, when a value is invalid, one log line per bad field naming its variable, and exit
+    :data:`BAD_SETTINGS_EXIT` (was a pydantic traceback from the service, then one from the CLI)."""
+    try:
+        return cls()
+    except ValidationError as exc:
+        prefix = str(cls.model_config.get("env_prefix", "")).upper()
+        log = logging.getLogger(__name__)
+        for err in exc.errors():
+            field = ".".join(str(part) for part in err["loc"]) or "settings"
+            log.error("bad setting %s%s: %s (got %r)", prefix, field.upper(), err["msg"], err.get("input"))
+        raise SystemExit(BAD_SETTINGS_EXIT) from None
 
 
 def shutdown_event() -> threading.Event:
