@@ -219,6 +219,10 @@ class WordNet:
         self.mostly_verb = lru_cache(maxsize=65536)(self._mostly_verb)
         self.is_verb = lru_cache(maxsize=65536)(self._is_verb)
         self.verb_field = lru_cache(maxsize=65536)(self._verb_field)
+        self.names_artifact = lru_cache(maxsize=16384)(self._names_artifact)
+        self.noun_count = lru_cache(maxsize=65536)(self._noun_count)
+        self._noun_lemmas: frozenset[str] | None = None
+        self.part_of = lru_cache(maxsize=16384)(self._part_of)
 
     def _lemma(self, word: str) -> str:
         """The noun lemma ("people" stays, "geese" → "goose", "fields" → "field", not the
@@ -288,6 +292,44 @@ class WordNet:
         with self._lock:
             senses = self._wn.synsets(word, "v")
             return str(senses[0].lexname()).removeprefix("verb.") if senses else None
+
+    def noun_lemmas(self) -> frozenset[str]:
+        """Every noun lemma WordNet has, as written in its index ("people", "conveyor_belt"), and every
+        irregular noun form its lemmatiser knows ("men", "geese"): a set to filter many candidate
+        strings by before looking any of them up (a typing slip's)."""
+        if self._noun_lemmas is None:
+            with self._lock:
+                index = self._wn._lemma_pos_offset_map
+                irregular = self._wn._exception_map.get("n", {})
+                self._noun_lemmas = frozenset([*(lemma for lemma, by_pos in index.items() if "n" in by_pos),
+                                               *irregular])
+        return self._noun_lemmas
+
+    def _noun_count(self, word: str) -> int:
+        """How often WordNet's tagged corpus (SemCor) uses ``word`` as a noun, all senses."""
+        key = word.replace(" ", "_")
+        senses = self._senses(word)
+        with self._lock:
+            return sum(lemma.count() for s in senses for lemma in s.lemmas() if lemma.name().lower() == key)
+
+    def _names_artifact(self, word: str) -> bool:
+        """Whether every noun sense of ``word`` is a made thing (WordNet's ``noun.artifact``
+        file): "conveyor belt" is one, though its hypernyms reach no anchor; "horse race" is not."""
+        senses = self._senses(word)
+        with self._lock:
+            return bool(senses) and all(s.lexname() == "noun.artifact" for s in senses)
+
+    def _part_of(self, part: str, whole: str) -> bool:
+        """Whether WordNet names ``part`` a part of ``whole`` (a part meronym of one of the whole's
+        first :data:`UNCOUNTED_SENSES` senses or of their hypernyms): "hood" of "car", "deck" of
+        "boat", "head" of "horse"."""
+        key = part.replace(" ", "_")
+        with self._lock:
+            for sense in self._wn.synsets(whole.replace(" ", "_"), "n")[:UNCOUNTED_SENSES]:
+                for s in [sense, *sense.closure(lambda t: t.hypernyms())]:
+                    if any(lemma.name().lower() == key for p in s.part_meronyms() for lemma in p.lemmas()):
+                        return True
+        return False
 
     def _noun_class(self, word: str) -> NounClass | None:
         """The most careful class of the word's first senses; ``None`` if WordNet lacks the noun."""

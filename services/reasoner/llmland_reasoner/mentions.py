@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+from string import ascii_lowercase
 
 from .found import Found, Source, Status
 from .kb import KbEntry, KnowledgeBase
@@ -57,6 +58,10 @@ MAX_NAME_WORDS = 4
 NEGATION_REACH = 3
 NEGATORS = frozenset({"no", "without"})
 COORDINATORS = frozenset({"or", "nor"})
+#: Words that say no one or nothing is there: no mention unless hedged ("almost nobody": a few
+#: people), and they lower nothing either ("nobody else", "nobody is swimming"). WordNet's
+#: "nobody" is a person (a nonentity), so "there is nobody outside" was a seated person, 3 m.
+NO_ONE = frozenset("nobody noone none nothing".split())
 #: Words that make the negation after them partial ("almost no people", "hardly anybody"): it
 #: lowers nothing.
 HEDGES = frozenset("almost nearly hardly barely virtually practically scarcely".split())
@@ -120,6 +125,14 @@ WAYS = frozenset("across along over through into onto toward towards past".split
 #: Prepositions after which a person noun read mostly as an adjective heads its phrase ("an
 #: individual on a bike", "an individual in a red jacket").
 PERSON_PREPOSITIONS = frozenset("on in with near at by beside behind wearing holding carrying".split())
+#: Possessive determiners: a noun phrase starts after them ("a girl riding her bicyle").
+POSSESSIVES = frozenset("her his their its my our your".split())
+#: The shortest word (letters) read as a typing slip of a person's name.
+TYPO_MIN_LETTERS = 3
+#: Suffixes that make a word from a known one ("seater", "kayakers"): such a word is no typing slip.
+DERIVING_SUFFIXES = ("ers", "er", "ist", "ists", "ors", "or", "ing", "ings", "ed", "s", "es", "ies", "y", "ly")
+#: The shortest part (letters) of a word WordNet lacks read as two words run together.
+COMPOUND_PART_MIN = 3
 #: Care order of the classes a newly found compound may take over a span with (``_compound``).
 _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: Nouns for the image: "a (black and white) photo of a man running" shows a man. They are
@@ -127,14 +140,28 @@ _CARE_ORDER = {"person": 3, "animal": 2, "vehicle": 1}
 #: so careful).
 IMAGE_NOUNS = frozenset(
     "photo photograph picture image pic view shot snapshot closeup close-up scene screenshot frame "
-    "aerial overhead".split()
+    "aerial overhead footage imagery video".split()
 )
+#: The camera's own platform: "a drone photo of a field", "drone footage of a beach", "a view
+#: taken from a drone" name the vehicle that took the picture, not one in it (was a 5 m aircraft
+#: over every such caption). Only the camera's kind of platform: "a helicopter shot" may show one.
+CAMERA_PLATFORMS = frozenset("drone drones quadcopter quadcopters multicopter quadrotor satellite uas".split())
+#: What a camera platform makes, right after its name ("a drone shot", "satellite imagery").
+CAMERA_MEDIA = IMAGE_NOUNS | frozenset(
+    "photos photographs pictures images views shots footage video videos photography imagery capture "
+    "camera cam perspective angle survey".split()  # not "still": "a drone still hovering"
+)
+#: Verbs of taking a picture, before "from/by" a platform ("an image captured by a drone").
+CAMERA_VERBS = frozenset("taken captured shot filmed photographed recorded seen viewed".split())
 #: Words that end the complement of a depiction ("a statue of a man on a horse | , children
 #: playing nearby"): anything that may start a new, real thing ends it.
 COMPLEMENT_BOUNDARY = frozenset(
     ", ; and while with next near beside behind by front among around surrounded full filled crowded "
     "is are was were which who that where as while".split()
 )
+#: Verbs by which a depiction says what it shows, like its "of" ("a billboard showing a woman
+#: drinking coffee", "a mural depicting horses": were a person and horses, present).
+DEPICTING_VERBS = frozenset("showing depicting featuring portraying picturing advertising displaying".split())
 #: Modifiers that make the next noun a depiction ("a toy car", "an inflatable dinosaur").
 DEPICTION_MODIFIERS = frozenset(
     "toy inflatable stuffed plush cardboard plastic fake model stone bronze marble wooden concrete metal "
@@ -149,6 +176,15 @@ DISPLAY_NOUNS = frozenset(
 #: of a woman on the side of a bus": the bus is real).
 PLACEMENT_SURFACES = frozenset("side sides back front wall walls window windows door doors roof top".split())
 PLACEMENT_PREPOSITIONS = frozenset({"on", "in", "at"})
+#: Shorthand pilots and ground crews type in notes and radio logs ("3 ppl nr pad", "pax boarding
+#: the heli", "1 pers at N edge"), written out: WordNet and the KB know none of these, so "ppl"
+#: and "pers" were no mention at all (the pad, 0 m). Only forms with no other reading in a
+#: caption; each stands for one word, so word positions stay those of the caption.
+SHORTHAND = {
+    "ppl": "people", "pers": "person", "pax": "passengers", "ped": "pedestrian", "peds": "pedestrians",
+    "heli": "helicopter", "helis": "helicopters", "helo": "helicopter", "helos": "helicopters",
+    "veh": "vehicle", "vehs": "vehicles", "acft": "aircraft", "uav": "drone", "uavs": "drones",
+}
 _TOKEN = re.compile(r"[a-z0-9]+(?:[-'][a-z0-9]+)*|[,;]")
 _LIVING_OR_VEHICLE = frozenset({"person", "animal", "vehicle"})
 
@@ -159,8 +195,10 @@ def _implied_unit(entry: KbEntry | None, wordnet_class: str) -> tuple[int, str, 
 
 
 def tokenize(caption: str) -> list[str]:
-    """Lower-case words; possessives folded ("people's" → "people")."""
-    return [t.removesuffix("'s") for t in _TOKEN.findall(caption.lower())]
+    """Lower-case words; possessives folded ("people's" → "people"); an operator's shorthand
+    written out (:data:`SHORTHAND`: "2 ppl nr pad" → "2 people nr pad"), one word for one."""
+    words = (t.removesuffix("'s") for t in _TOKEN.findall(caption.lower()))
+    return [SHORTHAND.get(w, w) for w in words]
 
 
 class MentionFinder:
@@ -216,6 +254,8 @@ class MentionFinder:
         word = words[i]
         if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha():
             return False
+        if word in NO_ONE:
+            return i > 0 and words[i - 1] in HEDGES  # "almost nobody": a few people are there
         if len(word) < 3:  # "an RV", "a DJ playing"; not "ai", "pa" or "ma"
             return self._short_noun(words, i)
         if word.endswith(("ing", "ed")) and (i == 0 or words[i - 1] not in DETERMINERS):
@@ -321,7 +361,7 @@ class MentionFinder:
 
     def _unit(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
         """The lexical unit starting at ``i``: (length, class, source, kb id), or None."""
-        if words[i] in IMAGE_NOUNS:
+        if words[i] in IMAGE_NOUNS or self._camera_platform(words, i):
             return None
         if words[i] in PERSON_PRONOUNS:
             return self._implied_person(words[i])
@@ -352,6 +392,23 @@ class MentionFinder:
                 cls = "vehicle"  # only vehicles are parked: the WordNet sense was another one
             return 1, cls, "wordnet", None
         return self._hyphenated(words, i) if "-" in words[i] else None
+
+    @staticmethod
+    def _camera_platform(words: Sequence[str], i: int) -> bool:
+        """Whether ``words[i]`` names the camera's own platform (:data:`CAMERA_PLATFORMS`): before
+        what it makes ("a drone photo of", "drone footage"), or after "from"/"by" right after a
+        camera verb or medium ("a view from a drone", "an image captured by a drone"; not "a man
+        hit by a drone", nor "a photo of a man hit by a drone")."""
+        if words[i] not in CAMERA_PLATFORMS:
+            return False
+        if i + 1 < len(words) and words[i + 1] in CAMERA_MEDIA:
+            return True
+        j = i - 1
+        if j >= 0 and words[j] in DETERMINERS:
+            j -= 1
+        if j < 0 or words[j] not in ("from", "by"):
+            return False
+        return j > 0 and (words[j - 1] in CAMERA_VERBS or words[j - 1] in CAMERA_MEDIA)
 
     def _hyphenated(self, words: Sequence[str], i: int) -> tuple[int, str, Source, str | None] | None:
         """The unit of a hyphenated word the KB and WordNet lack as written: as they write it,
@@ -430,6 +487,8 @@ class MentionFinder:
                 cls = self.wordnet.noun_class(spaced)
                 if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
                     return n, cls
+                if cls == "abstract" and self.wordnet.names_artifact(spaced):
+                    return n, "object"  # "a conveyor belt": a made thing, not a conveyer (a person) and a belt
             names = ["-".join([*head, last])]  # "go-kart"; three words: also "hot-air balloon"
             if n == 3:
                 names += [spaced, "-".join(head) + " " + last]
@@ -448,19 +507,72 @@ class MentionFinder:
         cls = kb[1].category if kb is not None else self.wordnet.noun_class(self.wordnet.lemma(word))
         return _CARE_ORDER.get(cls or "", 0)
 
+    def _closed_compound(self, word: str) -> str | None:
+        """The class of a word WordNet lacks, written as two words it knows run together, by its
+        last part ("zookeeper": a keeper, "groundskeeper", "birdwatchers"), only where that names
+        a person: human, as the hard limit needs ("a zookeeper spreading food" was unknown), and
+        only where every way of cutting the word says so. Otherwise None: the word stays unknown,
+        5 m ("mudflat"; "bareland" is bare land as well as a bar and an eland; "snowcat" is a
+        machine, though its last part is an animal: an animal's 4 m would be less careful)."""
+        readings: list[str | None] = []
+        for k in range(COMPOUND_PART_MIN, len(word) - COMPOUND_PART_MIN + 1):
+            head, tail = word[:k], word[k:]
+            if tail in DERIVING_SUFFIXES or not (self.wordnet.is_known(head)
+                                                 and self.wordnet.is_known(self.wordnet.lemma(tail))):
+                continue  # "birdwatch|ers": a suffix, not WordNet's "ers" (a vetch)
+            cls = self.wordnet.noun_class(self.wordnet.lemma(tail))
+            ok = cls == "person" and _CARE_ORDER[cls] >= self._care_of_word(head)
+            readings.append(cls if ok else None)
+        if not readings or None in readings:
+            return None
+        return max((r for r in readings if r is not None), key=_CARE_ORDER.__getitem__)
+
+    def _misspelt_person(self, word: str) -> str | None:
+        """``"person"`` for a word no one knows that is one typing slip (a letter dropped, added,
+        changed, or two swapped: Damerau distance 1) from a noun, the one WordNet's tagged corpus
+        uses most, when that names a person ("a wman walkng her dog", "peopel sitting on the
+        grass", "two mne fishing": were unknown, not human). Only people, whom the care order puts
+        above the unknown spec; a slip from an animal's name stays unknown ("a dgo": 5 m, more
+        than a dog's 4 m), as does one from anything else ("a smal shed behnd the hous")."""
+        if len(word) < TYPO_MIN_LETTERS or self._derived(word):
+            return None
+        nouns = self.wordnet.noun_lemmas()
+        best, best_count = None, 0
+        for candidate in sorted(_one_slip(word)):
+            if candidate not in nouns and candidate.removesuffix("s") not in nouns \
+                    and candidate.removesuffix("es") not in nouns:
+                continue  # no noun, nor a regular plural of one ("peopel": "people" is one)
+            lemma = self.wordnet.lemma(candidate)
+            count = self.wordnet.noun_count(lemma)
+            if count > best_count:
+                best, best_count = lemma, count
+        if best is None:
+            return None
+        kb = self._kb_match([best], 0)
+        cls = kb[1].category if kb is not None else self.wordnet.noun_class(best)  # "people": the KB's
+        return "person" if cls == "person" else None
+
+    def _derived(self, word: str) -> bool:
+        """Whether ``word`` is a known word with a suffix (:data:`DERIVING_SUFFIXES`): a word the
+        captioner made, not a slip ("a two seater": a seat's, not a skater; "a kayaker")."""
+        return any(word.endswith(suffix) and len(word) - len(suffix) >= TYPO_MIN_LETTERS
+                   and self.wordnet.is_known(word[: -len(suffix)]) for suffix in DERIVING_SUFFIXES)
+
     def _is_unknown_head(self, words: Sequence[str], i: int) -> bool:
         word = words[i]
         if word in FUNCTION_WORDS or word in NEGATORS or not word.isalpha() or len(word) < 3:
             return False
         if word.endswith(("ing", "ed", "ly")) or self.wordnet.is_known(word):
             return False
-        # a noun phrase starts there: the caption's start ("Quokka sitting in a parking lot"), after
-        # a determiner ("a quokka"), a conjunction ("a road and quokkas") or the "of" of a quantity
-        # ("a pair of birdwatchers", "a group of quokkas": what it counts); elsewhere an unknown
-        # word is more likely a modifier or a misspelling of the head that follows ("a field of
-        # dandylions": a place's "of" is left to that rule)
-        return i == 0 or words[i - 1] in DETERMINERS or words[i - 1] in NOUN_PHRASE_CONJUNCTIONS \
-            or (i >= 2 and words[i - 1] == "of" and self._counts(words[i - 2]))
+        # a noun phrase starts there: the caption's start ("Quokka sitting in a parking lot"),
+        # after a determiner ("a quokka") or a possessive ("riding her bicyle"), a conjunction
+        # ("a road and quokkas") or the "of" of a quantity ("a pair of birdwatchers", "a group
+        # of quokkas": what it counts); elsewhere an unknown word is more likely a modifier or a
+        # misspelling of the head that follows ("a field of dandylions": a place's "of" is left
+        # to that rule)
+        prev = words[i - 1] if i > 0 else ""
+        return i == 0 or prev in DETERMINERS or prev in POSSESSIVES or prev in NOUN_PHRASE_CONJUNCTIONS \
+            or (i >= 2 and prev == "of" and self._counts(words[i - 2]))
 
     def _counts(self, word: str) -> bool:
         """Whether a noun before "of" counts what follows: a quantity (:data:`QUANTIFIERS`, "group")
@@ -479,15 +591,32 @@ class MentionFinder:
                 units.append(Found(i, i + n, " ".join(words[i : i + n]), cls, source, kb_id))
                 i += n
             elif self._is_unknown_head(words, i):
-                units.append(Found(i, i + 1, words[i], "unknown", "unknown"))
+                being = self._closed_compound(words[i]) or self._misspelt_person(words[i])
+                units.append(Found(i, i + 1, words[i], being, "wordnet") if being else
+                             Found(i, i + 1, words[i], "unknown", "unknown"))
                 i += 1
             else:
                 i += 1
         mentions = self._with_implied(words, self._without_collectives(words, self._heads(units)))
         mentions = with_verb_subjects(words, mentions, self.wordnet, self._implied_animal)
-        mentions = self._mark_depicted(words, mentions)
+        mentions = self._without_parts(words, self._mark_depicted(words, mentions))
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
+
+    def _without_parts(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Drop a one-word mention that names a part of the thing named after its "of" ("a cat on
+        the hood of a car": WordNet's car has a hood, so not its first sense, a hoodlum, 3 m; "the
+        deck of a boat", "the head of a horse"). The whole stays, so the caption keeps its care."""
+        kept: list[Found] = []
+        for k, m in enumerate(mentions):
+            whole = mentions[k + 1] if k + 1 < len(mentions) else None
+            between = words[m.end : whole.start] if whole is not None else []
+            if (whole is not None and m.end - m.start == 1 and between[:1] == ["of"] and len(between) <= 3
+                    and all(w in DETERMINERS or w == "of" for w in between)
+                    and self.wordnet.part_of(self.wordnet.lemma(m.text), self.wordnet.lemma(whole.text.split()[-1]))):
+                continue
+            kept.append(m)
+        return kept
 
     def _heads(self, units: list[Found]) -> list[Found]:
         """Drop units that only qualify the next noun, keeping people, animals and vehicles."""
@@ -626,12 +755,14 @@ class MentionFinder:
         return out
 
     def _mark_depicted(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
-        """Mark what a depiction's "of" names as depicted, up to :data:`COMPLEMENT_BOUNDARY`; for a
+        """Mark what a depiction's "of" (or a verb of showing, :data:`DEPICTING_VERBS`: "a billboard
+        showing a woman") names as depicted, up to :data:`COMPLEMENT_BOUNDARY`; for a
         flat thing put up somewhere (:data:`DISPLAY_NOUNS`), also up to where it is put: "a poster
         of a woman | on the side of a bus" (:data:`PLACEMENT_SURFACES`; the bus was depicted: 1 m)."""
         out = list(mentions)
         for m in mentions:
-            if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words) or words[m.end] != "of":
+            if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words) or \
+                    (words[m.end] != "of" and words[m.end] not in DEPICTING_VERBS):
                 continue
             displayed = m.text.split()[-1] in DISPLAY_NOUNS
             stop = next((j for j in range(m.end + 1, len(words)) if words[j] in COMPLEMENT_BOUNDARY
@@ -648,15 +779,39 @@ class MentionFinder:
             between = words[p + 1 : out[k].start] if k is not None else []
             if k is None or out[k].start - p > NEGATION_REACH or NEGATION_STOP.intersection(between):
                 continue  # too far, or "no one but a man": the negation is not about that mention
-            while True:
-                out[k] = _with(out[k], "negated")
-                after = out[k].end
-                if k + 1 < len(out) and after < len(words) and words[after] in COORDINATORS \
-                        and out[k + 1].start - after <= 2:
-                    k += 1
-                    continue
-                break
+            for j in _negated_list(words, out, k):
+                out[j] = _with(out[j], "negated")
         return out
+
+
+def _negated_list(words: Sequence[str], mentions: Sequence[Found], k: int) -> range:
+    """The mentions a negation of mention ``k`` reaches: ``k`` and those coordinated with it by
+    "or"/"nor" ("no people or cars"), also across commas when "or"/"nor" closes the list ("no
+    buildings, people or animals": was only the buildings, so the people were present). A comma
+    list that no "or" closes ends the negation at its first comma ("no cars, a man walking")."""
+    last, j = k, k
+    while j + 1 < len(mentions):
+        link = words[mentions[j].end : mentions[j + 1].start]
+        if link and link[-1] in COORDINATORS and link[:1] in ([","], [link[-1]]) and len(link) <= 2:
+            last = j = j + 1  # "or", ", or", "nor": the list goes on and what is before it is in
+        elif link and link[0] in COORDINATORS and len(link) == 2 and link[1] in DETERMINERS:
+            last = j = j + 1  # "no cars or any people"
+        elif link == [","]:
+            j += 1  # in the list only if an "or" closes it further on
+        else:
+            break
+    return range(k, last + 1)
+
+
+def _one_slip(word: str) -> set[str]:
+    """Every string one typing slip from ``word`` (Damerau-Levenshtein distance 1 over a-z)."""
+    splits = [(word[:k], word[k:]) for k in range(len(word) + 1)]
+    out = {a + b[1:] for a, b in splits if b}
+    out |= {a + b[1] + b[0] + b[2:] for a, b in splits if len(b) > 1}
+    out |= {a + c + b[1:] for a, b in splits if b for c in ascii_lowercase}
+    out |= {a + c + b for a, b in splits for c in ascii_lowercase}
+    out.discard(word)
+    return out
 
 
 def _placed_at(words: Sequence[str], j: int) -> bool:

@@ -186,10 +186,26 @@ def candidates(kb: KnowledgeBase, found: Found, parked: bool = False, ridden: bo
         elif not ridden:
             entries = [e for e in entries if e.buffer_m <= floor or e.id == found.kb_id] or entries
     if found.word_class == "vehicle":
+        made = _make_entry(kb, found)
+        if made is not None and made.is_dynamic != parked:
+            return [made]  # "a caterpillar dozer": the make's own vehicle (was the aircraft the window resembled)
         entries = [e for e in entries if e.is_dynamic != parked] or entries
     if found.word_class in STATIC_NAMED_CLASSES:
         entries = [e for e in entries if e.id == found.kb_id] or entries
     return entries
+
+
+def _make_entry(kb: KnowledgeBase, found: Found) -> KbEntry | None:
+    """The KB vehicle a mention names by one of its makes ("a ford mustang", "a caterpillar dozer":
+    ``makes.py`` gave the mention that entry), else None."""
+    if found.source != "kb" or found.kb_id is None:
+        return None
+    try:
+        entry = kb.get(found.kb_id)
+    except KeyError:
+        return None
+    text = found.text
+    return entry if any(text == m or text.startswith(m + " ") for m in entry.makes) else None
 
 
 #: The KB's two-wheelers, whose rider is the KB's cyclist (5 m: "a person riding a bicycle or
