@@ -218,6 +218,7 @@ def _reasoner_http_port_free() -> None:
 
     settings = settings_or_exit(ReasonerSettings)
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds: TIME_WAIT is no owner
         try:
             probe.bind((settings.http_host, settings.http_port))
         except OSError as exc:

@@ -172,7 +172,7 @@ class Stack:
         deadline = time.monotonic() + timeout_s
         while True:
             if interrupted is not None and interrupted.is_set():
-                raise StartupError("interrupted during start-up: stopping the services")
+                raise KeyboardInterrupt  # Ctrl-C or SIGTERM: the services stop on the way out, exit 130
             if self._stopped.is_set():
                 raise StartupError("stack stopped during start-up")
             found = bus.alive(ALIVE_ANY_DRONE, timeout_s=0.5)

@@ -29,6 +29,8 @@ ALIVE_TIMEOUT_S = 10.0
 SIM_CHECK_S = 2.0
 #: how long (s) one such liveliness query may take
 SIM_QUERY_S = 1.0
+#: how many such queries in a row must find no sim before the mission is given up
+SIM_MISSES = 2
 
 
 class MissionError(RuntimeError):
@@ -106,7 +108,7 @@ def send_mission(req: MissionRequest, connect: list[str]) -> EpisodeResult:
                  ", ".join(settings.connect))
         runner = EpisodeRunner(bus, req.drone_id)
         try:
-            return runner.run(mission, req.wall_timeout_s, watch=SimWatch(bus, runner, req.drone_id))
+            return runner.run(mission, req.wall_timeout_s, watch=SimWatch(bus, runner, req.drone_id, mission))
         except TimeoutError as exc:
             raise MissionLostError(str(exc)) from None
         except KeyboardInterrupt:  # Ctrl-C: the episode is not left flying (or queued) for no one
@@ -121,8 +123,9 @@ class SimWatch:
     will come; the wait was up to 30 min), and says once when the drone is busy with another
     episode (the mission waits its turn)."""
 
-    def __init__(self, bus: Bus, runner: EpisodeRunner, drone_id: str) -> None:
-        self.bus, self.runner, self.drone_id = bus, runner, drone_id
+    def __init__(self, bus: Bus, runner: EpisodeRunner, drone_id: str, mission: MissionGoal) -> None:
+        self.bus, self.runner, self.drone_id, self.mission = bus, runner, drone_id, mission
+        self._misses = 0
         self._checked_at = time.monotonic()
         self._told_busy = False
 
@@ -138,6 +141,8 @@ class SimWatch:
             up = bool(self.bus.alive(alive_key("sim", self.drone_id), SIM_QUERY_S))
         except zenoh.ZError:  # the session to the hub is broken: no result can reach us either
             up = False
-        if not up:
+        self._misses = 0 if up else self._misses + 1
+        if self._misses >= SIM_MISSES:  # one slow query is no death
+            self.runner.stop(self.mission)  # in case it lives after all: not flown for no one
             raise MissionLostError(f"drone {self.drone_id}'s sim is gone (its stack stopped or crashed): no result "
                                "will come")

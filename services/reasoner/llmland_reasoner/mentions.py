@@ -148,9 +148,12 @@ IMAGE_NOUNS = frozenset(
 CAMERA_PLATFORMS = frozenset("drone drones quadcopter quadcopters multicopter quadrotor satellite uas".split())
 #: What a camera platform makes, right after its name ("a drone shot", "satellite imagery").
 CAMERA_MEDIA = IMAGE_NOUNS | frozenset(
-    "photos photographs pictures images views shots footage video videos photography imagery capture "
-    "camera cam perspective angle survey".split()  # not "still": "a drone still hovering"
-)
+    "photos photographs pictures images views shots footage videos photography imagery".split()
+)  # not "still", "camera", "cam": "a drone still hovering", "a drone camera hovering" are drones
+#: What may follow "<platform> <medium>" for the medium to be the camera's ("a drone shot of a
+#: beach", "drone footage over the bay", "a drone view."); anything else keeps the drone ("a drone
+#: video flying low", "a drone shot down").
+CAMERA_MEDIA_NEXT = frozenset("of over above from across along , ;".split())
 #: Verbs of taking a picture, before "from/by" a platform ("an image captured by a drone").
 CAMERA_VERBS = frozenset("taken captured shot filmed photographed recorded seen viewed".split())
 #: Words that end the complement of a depiction ("a statue of a man on a horse | , children
@@ -162,6 +165,9 @@ COMPLEMENT_BOUNDARY = frozenset(
 #: Verbs by which a depiction says what it shows, like its "of" ("a billboard showing a woman
 #: drinking coffee", "a mural depicting horses": were a person and horses, present).
 DEPICTING_VERBS = frozenset("showing depicting featuring portraying picturing advertising displaying".split())
+#: Made pictures and figures whose verb of showing is a depiction's (with :data:`DISPLAY_NOUNS`);
+#: not the camera's own images, maps or scans ("a thermal scan showing a person": a person).
+ART_NOUNS = frozenset("statue statues sculpture sculptures figurine figurines".split())
 #: Modifiers that make the next noun a depiction ("a toy car", "an inflatable dinosaur").
 DEPICTION_MODIFIERS = frozenset(
     "toy inflatable stuffed plush cardboard plastic fake model stone bronze marble wooden concrete metal "
@@ -402,7 +408,7 @@ class MentionFinder:
         if words[i] not in CAMERA_PLATFORMS:
             return False
         if i + 1 < len(words) and words[i + 1] in CAMERA_MEDIA:
-            return True
+            return i + 2 == len(words) or words[i + 2] in CAMERA_MEDIA_NEXT
         j = i - 1
         if j >= 0 and words[j] in DETERMINERS:
             j -= 1
@@ -487,7 +493,9 @@ class MentionFinder:
                 cls = self.wordnet.noun_class(spaced)
                 if cls is not None and cls != "abstract":  # "horse race", "car crash": events keep their nouns
                     return n, cls
-                if cls == "abstract" and self.wordnet.names_artifact(spaced):
+                if cls == "abstract" and self.wordnet.names_artifact(spaced) and not any(
+                        self._names_head(span, k) or self._care_of_word(w) == _CARE_ORDER["animal"]
+                        for k, w in enumerate(span) if self._kb_match([w], 0) is not None):
                     return n, "object"  # "a conveyor belt": a made thing, not a conveyer (a person) and a belt
             names = ["-".join([*head, last])]  # "go-kart"; three words: also "hot-air balloon"
             if n == 3:
@@ -761,10 +769,12 @@ class MentionFinder:
         of a woman | on the side of a bus" (:data:`PLACEMENT_SURFACES`; the bus was depicted: 1 m)."""
         out = list(mentions)
         for m in mentions:
-            if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words) or \
-                    (words[m.end] != "of" and words[m.end] not in DEPICTING_VERBS):
+            if m.word_class != "lookalike" or m.status != "present" or m.end >= len(words):
                 continue
             displayed = m.text.split()[-1] in DISPLAY_NOUNS
+            shows = words[m.end] in DEPICTING_VERBS and (displayed or m.text.split()[-1] in ART_NOUNS)
+            if words[m.end] != "of" and not shows:
+                continue  # "a thermal scan showing a person", "photos showing people": what the camera saw
             stop = next((j for j in range(m.end + 1, len(words)) if words[j] in COMPLEMENT_BOUNDARY
                          or (displayed and _placed_at(words, j))), len(words))
             out = [_with(x, "depicted") if m.end < x.start < stop and x.status == "present" else x for x in out]
@@ -788,7 +798,9 @@ def _negated_list(words: Sequence[str], mentions: Sequence[Found], k: int) -> ra
     """The mentions a negation of mention ``k`` reaches: ``k`` and those coordinated with it by
     "or"/"nor" ("no people or cars"), also across commas when "or"/"nor" closes the list ("no
     buildings, people or animals": was only the buildings, so the people were present). A comma
-    list that no "or" closes ends the negation at its first comma ("no cars, a man walking")."""
+    list that no "or" closes ends the negation at its first comma ("no cars, a man walking"), and so
+    does one that a participle follows: it says what the last items do ("a field with no trees, cows
+    or horses grazing")."""
     last, j = k, k
     while j + 1 < len(mentions):
         link = words[mentions[j].end : mentions[j + 1].start]
@@ -800,6 +812,10 @@ def _negated_list(words: Sequence[str], mentions: Sequence[Found], k: int) -> ra
             j += 1  # in the list only if an "or" closes it further on
         else:
             break
+    after = words[mentions[last].end] if mentions[last].end < len(words) else ""
+    commas = any(w == "," for w in words[mentions[k].end : mentions[last].start])
+    if commas and after.endswith(("ing", "ed")):
+        return range(k, k + 1)  # "no trees, cows or horses grazing": the cows and horses are there
     return range(k, last + 1)
 
 

@@ -189,6 +189,9 @@ class SimService:
         self.clock = (PerceptionClock(LatencyModel.parse(mission.latency_model), mission.seed, s.perception_timeout_s)
                       if lockstep and mission.perception != "none" else None)
         self.current = mission
+        if mission.episode_id in self._cancelled:  # stopped while its world was being built: fly nothing
+            self._cancelled.discard(mission.episode_id)
+            sim.stop()
         self.bus.publish(self.k[Topic.MISSION], mission)
         if recording:
             self.recorder = SimRecorder(mission.episode_id, rrd=Path(rrd) if rrd else None,

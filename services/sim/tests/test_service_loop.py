@@ -213,3 +213,19 @@ def test_a_mission_stopped_while_queued_is_not_flown() -> None:
         worker.join(timeout=10)
         service.sim.close()
     assert _results(bus) == []  # not flown
+
+
+def test_a_stop_while_its_world_is_built_flies_nothing() -> None:
+    """A stop arriving after the sim took the mission from its queue but before it named it current
+    (review) went to the queued stops and the episode flew in full, for no one."""
+    bus, stop = _LoopbackBus(), threading.Event()
+    service = SimService(SimSettings(renderer="tiny", camera_hz=0.0, down_camera_hz=0.0), bus, stop)  # type: ignore[arg-type]
+    mission = MissionGoal(episode_id="e", world="open_field", seed=1, method="baseline", clock="lockstep",
+                          timeout_s=30.0)
+    service._on_mission("", mission.model_copy(update={"command": "stop"}))  # nothing current yet
+    try:
+        service.run_episode(mission)
+    finally:
+        service.sim.close()
+    (result,) = _results(bus)
+    assert result.outcome == "aborted" and result.sim_time_s < 0.1, result
