@@ -176,8 +176,7 @@ def cmd_up(args: argparse.Namespace) -> int:
     port = args.port
     drones = drone_ids(args.drones) if args.drones else [args.drone_id]
     log_dir = Path(args.log_dir) if args.log_dir else None
-    if "reasoner" in args.services:
-        _reasoner_http_port_free()
+    api_url = _reasoner_http_port_free() if "reasoner" in args.services else None
     with hub_bus(port) as bus, Fleet(port, drones, log_level=args.service_log_level, log_dir=log_dir) as fleet:
         fleet.start(args.services)
         fleet.wait_alive(bus, timeout_s=args.start_timeout, interrupted=stop)
@@ -187,8 +186,7 @@ def cmd_up(args: argparse.Namespace) -> int:
         log.info("services up on %s for drone(s) %s: %s — %s; Ctrl-C stops all", hub_endpoint(port),
                  ", ".join(drones), ", ".join(args.services), hint)
         if "reasoner" in args.services:
-            log.info("reasoner HTTP API on %s (POST an image to /v1/spec; interactive docs at /docs)",
-                     _reasoner_http_url())
+            log.info("reasoner HTTP API on %s (POST an image to /v1/spec; interactive docs at /docs)", api_url)
         served, next_log = SpecsServed(bus), time.monotonic() + SERVED_LOG_PERIOD_S
         logged: dict[str, int] = {}
         while not stop.wait(0.5):
@@ -211,9 +209,10 @@ def _reasoner_http_url() -> str:
     return f"http://{settings.http_host}:{settings.http_port}"
 
 
-def _reasoner_http_port_free() -> None:
-    """:class:`StartupError` when the reasoner's HTTP port is taken (another stack's reasoner: it
-    would exit at once and take this stack down, after ``up`` had printed the other one's address)."""
+def _reasoner_http_port_free() -> str:
+    """The reasoner's HTTP address (as :func:`_reasoner_http_url`), or :class:`StartupError` when its
+    port is taken (another stack's reasoner: it would exit at once and take this stack down, after
+    ``up`` had printed the other one's address)."""
     from llmland_reasoner.settings import ReasonerSettings
 
     settings = settings_or_exit(ReasonerSettings)
@@ -225,6 +224,7 @@ def _reasoner_http_port_free() -> None:
             raise StartupError(f"the reasoner's HTTP port {settings.http_host}:{settings.http_port} is taken "
                                f"({exc.strerror}): another stack? Give this one LLMLAND_REASONER_HTTP_PORT=<free port> "
                                "(and --port)") from None
+    return f"http://{settings.http_host}:{settings.http_port}"
 
 
 def cmd_mission(args: argparse.Namespace) -> int:

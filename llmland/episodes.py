@@ -29,7 +29,7 @@ class EpisodeRunner:
         self._started: set[str] = set()
         self._aborted = False
         self._latest: str | None = None  # the episode of the newest state seen
-        self._mine: set[str | None] = {None}  # the episodes sent here
+        self._mine: set[str] = set()  # the episodes sent here
         bus.subscribe(key(drone_id, Topic.RESULT), EpisodeResult, self._on_result)
         bus.subscribe(key(drone_id, Topic.STATE), VehicleState, self._on_state)
 
@@ -51,7 +51,7 @@ class EpisodeRunner:
 
     def busy_with(self) -> str | None:
         """The episode this drone's sim flies now when it is not one sent here (the newest state's)."""
-        return self._latest if self._latest not in self._mine else None
+        return self._latest if self._latest is not None and self._latest not in self._mine else None
 
     def abort(self) -> None:
         """Make a waiting and every later :meth:`run` raise ``RuntimeError`` (an interrupted experiment)."""
