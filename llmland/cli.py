@@ -158,7 +158,7 @@ def cmd_experiment(args: argparse.Namespace) -> int:
             worlds=worlds, latency_model=args.latency_model, specs=args.specs,
             ggufs=[Path(g).resolve() for g in args.gguf], jobs=args.jobs, timeout_s=args.timeout, rrd=args.rrd,
             resume=args.resume, overwrite=args.overwrite, log_level=args.service_log_level,
-            machine=machine()["machine"])
+            machine="{machine}; {cpu}".format(**machine()))
     except ValueError as exc:  # a --resume that would mix two ways of flying, an earlier run in OUT
         raise SystemExit(f"llmland experiment: {exc}") from exc
     sys.stdout.write(json.dumps(summary, indent=2) + "\n")
@@ -373,8 +373,9 @@ def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
                     choices=sorted(SERVICE_MODULES))
-    up.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
-    up.add_argument("--drones", type=drone_count, default=None, metavar="N",
+    one_or_many = up.add_mutually_exclusive_group()
+    one_or_many.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
+    one_or_many.add_argument("--drones", type=drone_count, default=None, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
     up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
     up.add_argument("--log-dir", type=writable_dir,
@@ -404,9 +405,13 @@ def _add_mission_parser(sub: argparse._SubParsersAction) -> None:  # type: ignor
 
 
 def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    bench = sub.add_parser("bench", help="print benchmark figures (median, p95)")
-    bench.add_argument("what", choices=["bus", "sim", "mpc", "vle", "reasoner", "startup"])
-    bench.add_argument("--json", action="store_true")
+    from .bench import BENCHMARKS
+
+    bench = sub.add_parser("bench", help="print benchmark figures (median, p95)",
+                           formatter_class=argparse.RawDescriptionHelpFormatter,
+                           epilog="benchmarks:\n" + "\n".join(f"  {k:9s} {v}" for k, v in BENCHMARKS.items()))
+    bench.add_argument("what", choices=list(BENCHMARKS), help="which benchmark (listed below)")
+    bench.add_argument("--json", action="store_true", help="print the figures as one JSON object")
     bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
     bench.set_defaults(func=cmd_bench)
 

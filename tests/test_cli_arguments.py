@@ -50,6 +50,8 @@ from llmland.cli import build_parser
     (["ceiling", "--seeds", "1-"], "ranges low-high"),
     (["ceiling", "--pedestrians", "300"], "at most 50 pedestrians"),
     (["up", "--drones", "1000"], "at most 32 drones"),
+    # was silently ignored: `up --drones 2 --drone-id d3` started d0 and d1
+    (["up", "--drones", "2", "--drone-id", "d3"], "not allowed with argument"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
@@ -58,6 +60,25 @@ def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
         build_parser().parse_args([a.replace("{tmp}", str(tmp_path)) for a in argv])
     assert exit_.value.code == 2
     assert says in capsys.readouterr().err
+
+
+def test_bench_help_says_what_each_benchmark_measures(capsys: pytest.CaptureFixture[str]) -> None:
+    from llmland.bench import BENCHMARKS
+
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args(["bench", "--help"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    for name, what in BENCHMARKS.items():
+        assert f"{name} " in out and what in out
+
+
+def test_benchmark_figures_name_the_cpu() -> None:
+    """Figures differ by CPU (AVX-512, AMX): every benchmark's machine line names it."""
+    from llmland.bench import machine
+
+    m = machine()
+    assert m["machine"].startswith(__import__("platform").machine()) and m["cpu"]
 
 
 def test_good_values_parse() -> None:

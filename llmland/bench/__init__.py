@@ -4,9 +4,23 @@ from __future__ import annotations
 
 import os
 import platform
+import re
 from typing import Any
 
 import numpy as np
+
+#: what each ``llmland bench <what>`` measures (its ``--help``)
+BENCHMARKS: dict[str, str] = {
+    "bus": "Zenoh round trip of a VehicleState between two processes (encode + validate both ways)",
+    "sim": "simulator speed: physics steps/s headless without camera, real-time factor with the cameras",
+    "mpc": "one MPC tick (linearise + clarabel solve) on a closed loop around a person-sized obstacle",
+    "vle": "simcap captioning: one frame (blobs, frame caption, crop captions), one crop, drops at 10 Hz",
+    "reasoner": "caption -> spec latency per mode (cold/warm cache), peak RSS, 10 drones x 2 Hz on one reasoner",
+    "startup": "wall time from launch until each of the four services of one drone can serve",
+}
+
+#: CPU features that decide which figures a machine can be compared with (and the LLM runtime's fault)
+_CPU_FLAGS = ("avx2", "avx512f", "amx_tile")
 
 
 def percentiles(samples: list[float] | np.ndarray, prefix: str, digits: int = 1) -> dict[str, float]:
@@ -16,8 +30,25 @@ def percentiles(samples: list[float] | np.ndarray, prefix: str, digits: int = 1)
 
 
 def machine() -> dict[str, Any]:
+    """The machine a figure came from: architecture, cores, Python, and (Linux) the CPU model and
+    whether it has AVX2 / AVX-512 / AMX (``/proc/cpuinfo``)."""
     return {"machine": f"{platform.machine()} {os.cpu_count()} cores, {platform.python_implementation()} "
-                       f"{platform.python_version()}"}
+                       f"{platform.python_version()}", "cpu": _cpu()}
+
+
+def _cpu() -> str:
+    """``"<model name> (avx2, avx512f, amx_tile)"`` from ``/proc/cpuinfo``; the processor string
+    alone where that file is missing (not Linux)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            info = f.read()
+    except OSError:
+        return platform.processor() or "unknown"
+    model = re.search(r"^model name\s*:\s*(.+)$", info, re.MULTILINE)
+    flags_line = re.search(r"^flags\s*:\s*(.+)$", info, re.MULTILINE)
+    flags = set(flags_line.group(1).split()) if flags_line else set()
+    has = [f for f in _CPU_FLAGS if f in flags]
+    return f"{model.group(1).strip() if model else 'unknown'} ({', '.join(has) or 'no AVX2'})"
 
 
 def run(what: str, *, quick: bool = False) -> dict[str, Any]:
@@ -40,5 +71,5 @@ def run(what: str, *, quick: bool = False) -> dict[str, Any]:
         from llmland_vle.bench import run_bench as run_vle
         figures = run_vle(quick=quick)
     else:
-        raise ValueError(f"unknown benchmark {what!r}")
+        raise ValueError(f"unknown benchmark {what!r}; one of: {', '.join(BENCHMARKS)}")
     return {"benchmark": what, **figures, **machine()}
