@@ -126,8 +126,10 @@ def test_a_mission_that_waits_too_long_is_stopped_not_flown_later(running: tuple
     the sim does not fly it afterwards for no one (it did: the next mission then waited for it)."""
     port, fleet = running
     endpoint = hub_endpoint(port)
-    first = subprocess.Popen(_mission_cmd(endpoint, "d0", "--timeout", "40"), stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, cwd=REPO)
+    # paced to real time, so that it is still flying 12 s of wall later on any machine (lockstep,
+    # it landed (24.8 s flown) within 12 s of wall on a faster one, and the second mission flew)
+    first = subprocess.Popen(_mission_cmd(endpoint, "d0", "--timeout", "40", "--clock", "realtime"),
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)
     try:
         time.sleep(8.0)  # the first is flying
         second = run_cli(*_mission_cmd(endpoint, "d0", "--wall-timeout", "4")[1:], timeout=120)
@@ -147,8 +149,8 @@ def test_a_mission_whose_sim_dies_ends_at_once(running: tuple[int, Fleet]) -> No
     """The drone's sim gone mid-mission (its stack crashed or stopped): the client says so within
     seconds, exit 1 (it waited up to 30 min). Last in this module: it kills d1's sim."""
     port, fleet = running
-    proc = subprocess.Popen(_mission_cmd(hub_endpoint(port), "d1", "--timeout", "60"), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, cwd=REPO)
+    proc = subprocess.Popen(_mission_cmd(hub_endpoint(port), "d1", "--timeout", "60", "--clock", "realtime"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO)  # flying at 8 s
     try:
         time.sleep(8.0)
         fleet.procs()["d1/sim"].kill()
