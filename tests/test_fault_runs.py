@@ -32,13 +32,16 @@ def test_perception_killed_mid_episode(service: str) -> None:
     assert min(r.min_person_distance_m.values()) >= 1.0
     assert r.perception_degraded and r.perception_lost >= 1
     # Degraded from the kill to the episode's end, whenever that was (with the measured latency the
-    # landing time moves with the machine's load). The outstanding request, or the next frame's,
-    # is counted lost PERCEPTION_TIMEOUT_S of wall after it was sent, and the sim runs no faster
-    # than real time while it waits.
+    # landing time moves with the machine's load). A request is counted lost PERCEPTION_TIMEOUT_S of
+    # wall after it was sent, and the sim runs no faster than real time while it waits. The first
+    # request the dead service cannot answer is the one outstanding at the kill, or the first frame
+    # after the release of the last answered one: that release is at most PERCEPTION_TIMEOUT_S after
+    # the kill (a longer latency is itself a loss), and the frame comes within a frame period of it.
+    # (The bound without that release failed by 0.08 s at load ~5: an answer measured at ≈ 0.8 s.)
     killed_s = running.killed_at_s[service]
     degraded_from_s = r.sim_time_s - r.perception_degraded_s
-    assert KILL_AT_S <= killed_s <= degraded_from_s <= killed_s + FRAME_PERIOD_S + PERCEPTION_TIMEOUT_S + SLACK_S, (
-        killed_s, r)
+    latest_s = killed_s + PERCEPTION_TIMEOUT_S + FRAME_PERIOD_S + PERCEPTION_TIMEOUT_S + SLACK_S
+    assert KILL_AT_S <= killed_s <= degraded_from_s <= latest_s, (killed_s, r)
     assert r.spec_latency_ms_mean is not None  # specs did arrive before the fault
 
 
