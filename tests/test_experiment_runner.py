@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import csv
 import faulthandler
+import json
 import signal
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -226,3 +228,33 @@ def test_without_a_terminal_the_running_counts_are_log_lines(tmp_path: Path, sta
     trials = [Trial("open_field", "llm-land", s) for s in range(1, 4)]
     ExperimentRunner(trials, tmp_path, jobs=1).run()
     assert "3 of 3 trials done; succeeded: llm-land 3/3" in caplog.text
+
+
+def test_an_interrupted_run_leaves_its_meta_and_a_resume_adds_to_it(
+        tmp_path: Path, stand_ins: dict[int, int], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C left no meta.json: a --resume then recorded only its own part (wall time, code) and
+    its own command (a newcomer's 0.7 min for a 1.4 min experiment)."""
+    real_fly = ExperimentRunner._fly
+
+    def interrupted(self: ExperimentRunner, running: Any, tracer: Any, trial: Trial) -> dict[str, Any]:
+        if trial.seed == 2:  # Ctrl-C reaches the main thread while a job flies
+            signal.raise_signal(signal.SIGINT)
+            time.sleep(0.5)
+        return real_fly(self, running, tracer, trial)
+
+    monkeypatch.setattr(ExperimentRunner, "_fly", interrupted)
+    monkeypatch.setattr(experiment.sys, "argv", ["llmland", "experiment", "exp1", "--trials", "3"])
+    with pytest.raises(KeyboardInterrupt):
+        experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], machine="m")
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    assert meta["interrupted"] is True and meta["trials"] is None and meta["code"]
+    assert meta["command"] == "llmland experiment exp1 --trials 3" and meta["wall_time_s"] >= 0.0
+
+    monkeypatch.setattr(ExperimentRunner, "_fly", real_fly)
+    monkeypatch.setattr(experiment.sys, "argv", ["llmland", "experiment", "exp1", "--trials", "3", "--resume"])
+    experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], resume=True, machine="m")
+    meta = json.loads((tmp_path / "meta.json").read_text())
+    assert meta["command"] == "llmland experiment exp1 --trials 3"  # the first command, not the resume
+    assert meta["resumed_with"] == ["llmland experiment exp1 --trials 3 --resume"]
+    assert meta["trials"] == 3 and "interrupted" not in meta
+    assert "resumed with `llmland experiment exp1 --trials 3 --resume`" in (tmp_path / "results.md").read_text()

@@ -13,6 +13,7 @@ import shlex
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +78,33 @@ def clear_run(out: Path) -> None:
         shutil.rmtree(out / name, ignore_errors=True)
 
 
+def _write_meta(path: Path, previous: dict[str, Any], *, code: str, wall_s: float, jobs: int, machine: str,
+                seeds: str, trials: int | None) -> dict[str, Any]:
+    """Write ``meta.json`` (and return it): the first command, the commands that resumed it, the code
+    each part flew (both named when they differ), the wall time of every part so far; ``trials``
+    None marks a run that was interrupted (its rows are in trials.csv; ``--resume`` finishes it)."""
+    command = shlex.join(["llmland", *sys.argv[1:]])
+    meta: dict[str, Any] = {
+        "command": previous.get("command", command),
+        "seeds": seeds,
+        "trials": trials,
+        "machine": machine,
+        # a resumed run may fly two versions: both are named
+        "code": code if previous.get("code", code) == code else f"{previous['code']} then {code}",
+        "jobs": jobs,
+        "wall_time_s": round(float(previous.get("wall_time_s", 0.0)) + wall_s, 1),
+    }
+    resumed = list(previous.get("resumed_with", []))
+    if previous:
+        resumed.append(command)
+    if resumed:
+        meta["resumed_with"] = resumed
+    if trials is None:
+        meta["interrupted"] = True
+    path.write_text(json.dumps(meta, indent=2) + "\n")
+    return meta
+
+
 def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
                    methods: list[str] | None = None, worlds: list[str] | None = None,
                    latency_model: str | None = None, specs: str = "pipeline", ggufs: list[Path] | None = None,
@@ -104,7 +132,15 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
                               log_level=log_level, label=experiment)
     if runner.skipped:
         log.info("resuming: %d of %d trials already in %s", runner.skipped, len(todo), runner.csv_path)
-    wall = runner.run()
+    meta_path = out / "meta.json"
+    previous = json.loads(meta_path.read_text()) if resume and meta_path.exists() else {}
+    t0 = time.perf_counter()
+    try:
+        wall = runner.run()
+    except BaseException:  # Ctrl-C, a crash: what flew so far is still accounted, for --resume
+        _write_meta(meta_path, previous, code=code, wall_s=time.perf_counter() - t0, jobs=jobs, machine=machine,
+                    seeds=f"{seed_base}–{seed_base + trials - 1}", trials=None)
+        raise
     keys = {t.key for t in todo}
     recorded = [r for r in read_rows(runner.csv_path) if row_key(r) in keys]
     rows = [r for r in recorded if r["outcome"] != "error"]
@@ -113,19 +149,8 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     names = {t.key: t.name for t in todo}
     summary["errored_trials"] = {names[row_key(r)]: r["episode_id"] for r in recorded if r["outcome"] == "error"}
     summary["missing_trials"] = [t.name for t in todo if t.key not in seen]
-    meta_path = out / "meta.json"
-    previous = json.loads(meta_path.read_text()) if resume and meta_path.exists() else {}
-    meta = {
-        "command": shlex.join(["llmland", *sys.argv[1:]]),
-        "seeds": f"{seed_base}–{seed_base + trials - 1}",
-        "trials": len(rows),
-        "machine": machine,
-        # a resumed run may fly two versions: both are named
-        "code": code if previous.get("code", code) == code else f"{previous['code']} then {code}",
-        "jobs": jobs,
-        "wall_time_s": round(float(previous.get("wall_time_s", 0.0)) + wall, 1),
-    }
-    meta_path.write_text(json.dumps(meta, indent=2) + "\n")
+    meta = _write_meta(meta_path, previous, code=code, wall_s=wall, jobs=jobs, machine=machine,
+                       seeds=f"{seed_base}–{seed_base + trials - 1}", trials=len(rows))
     write_report(out, summary, meta)
     for png in write_plots(out, summary, rows):
         log.info("plot %s", png)

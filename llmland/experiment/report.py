@@ -102,7 +102,9 @@ def results_markdown(summary: dict[str, Any], meta: dict[str, Any]) -> str:
              f"- command: `{meta['command']}`",
              f"- seeds: {meta['seeds']}; latency model: `{summary['latency_model']}`; {meta['trials']} trials",
              f"- machine: {meta['machine']}; code: {meta.get('code', 'not recorded')}",
-             f"- wall time: {meta['wall_time_s'] / 60:.1f} min ({meta['jobs']} job(s))", ""]
+             f"- wall time: {meta['wall_time_s'] / 60:.1f} min ({meta['jobs']} job(s))"
+             + (f"; resumed with {', '.join(f'`{c}`' for c in meta['resumed_with'])}"
+                if meta.get("resumed_with") else ""), ""]
     if exp == "exp3":
         lines += _exp3_table(summary)
     else:
