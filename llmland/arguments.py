@@ -74,6 +74,9 @@ MAX_SEEDS = 100_000
 MAX_PEDESTRIANS = 50
 #: More drones than one machine runs (three processes each).
 MAX_DRONES = 32
+#: most episodes in parallel: each job is a stack (sim, planner, VLE, reasoner with its LLM worker),
+#: ≈ 1.2 GB resident, and a lockstep episode keeps about one core busy (``--jobs 100`` started 100)
+MAX_JOBS = 16
 
 
 def seed_list(text: str) -> list[int]:
@@ -99,6 +102,14 @@ def pedestrian_count(text: str) -> int:
     value = non_negative_int(text)
     if value > MAX_PEDESTRIANS:
         raise argparse.ArgumentTypeError(f"at most {MAX_PEDESTRIANS} pedestrians, got {value}")
+    return value
+
+
+def job_count(text: str) -> int:
+    """Episodes in parallel, 1 to :data:`MAX_JOBS` (each is a whole stack of four processes)."""
+    value = positive_int(text)
+    if value > MAX_JOBS:
+        raise argparse.ArgumentTypeError(f"at most {MAX_JOBS} jobs (each a stack of ≈ 1.2 GB), got {value}")
     return value
 
 
@@ -181,15 +192,24 @@ def names_from(known: list[str]):  # type: ignore[no-untyped-def]
     return parse
 
 
+#: the services a fault run (``--kill``) may kill: the sim is the episode itself
+KILLABLE_SERVICES = ("vle", "reasoner", "planner")
+
+
 def fault(text: str) -> tuple[str, float]:
     """``SERVICE@SIM_S`` (a fault run: kill SERVICE when the episode reaches SIM_S seconds; ``@0``
     when the time is left out) → ``(service, seconds)``."""
-    service, _, at = text.partition("@")
+    service, sep, at = text.partition("@")
     if not service:
         raise argparse.ArgumentTypeError(f"{text!r}: use SERVICE@SIM_S, e.g. reasoner@20")
     if service == "sim":
         raise argparse.ArgumentTypeError(f"{text!r}: the sim is the episode (no result would come); "
-                                         "kill vle, reasoner or planner")
+                                         f"kill {', '.join(KILLABLE_SERVICES)}")
+    if service not in KILLABLE_SERVICES:
+        raise argparse.ArgumentTypeError(f"{text!r}: {service!r} is no service a fault run kills; "
+                                         f"one of {', '.join(KILLABLE_SERVICES)}")
+    if sep and not at:
+        raise argparse.ArgumentTypeError(f"{text!r}: no time after '@' (SERVICE alone kills it at 0 s)")
     try:
         seconds = float(at or 0.0)
     except ValueError:

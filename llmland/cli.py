@@ -26,6 +26,7 @@ from .arguments import (
     episode_seconds,
     fault,
     gguf_file,
+    job_count,
     latency_model,
     names_from,
     non_negative_int,
@@ -71,9 +72,11 @@ def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | N
                         scenario=args.scenario)
 
 
-def summary_line(r: EpisodeResult, startup_s: float | None = None) -> str:
+def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: Mapping[str, float] | None = None
+                 ) -> str:
     """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time
-    (and the services' start-up before it, ``startup_s``, when given)."""
+    (and the services' start-up before it, ``startup_s``, when given; the services a fault run
+    killed and the sim time (s) at which they died, ``killed_at_s``)."""
     td = f"{r.touchdown_error_m:.2f} m" if r.touchdown_error_m is not None else "—"
     closest = f"{min(r.min_person_distance_m.values()):.2f} m" if r.min_person_distance_m else "no person"
     lat = f"{r.spec_latency_ms_mean:.0f} ms" if r.spec_latency_ms_mean is not None else "—"
@@ -81,6 +84,7 @@ def summary_line(r: EpisodeResult, startup_s: float | None = None) -> str:
     return (f"{r.method} {r.world} seed {r.seed}: {r.outcome.upper()} — touchdown error {td}, "
             f"closest person {closest}, spec latency {lat}, {r.sim_time_s:.1f} s flown in "
             f"{r.wall_time_s:.1f} s wall{degraded}"
+            + "".join(f"; fault run: {name} killed at {at:.1f} s" for name, at in (killed_at_s or {}).items())
             + (f" (after {startup_s:.1f} s of service start-up)" if startup_s is not None else ""))
 
 
@@ -89,7 +93,13 @@ def cmd_land(args: argparse.Namespace) -> int:
     cfg = _config(args)
     absent = [service for service, _ in args.kill if service not in cfg.services()]
     if absent:
-        log.error("--kill %s: this stack runs %s", ", ".join(absent), ", ".join(cfg.services()))
+        log.error("--kill %s: method %s runs no %s (it runs %s)", ", ".join(absent), args.method,
+                  ", ".join(absent), ", ".join(cfg.services()))
+        return 2
+    late = [f"{service}@{at:g}" for service, at in args.kill if at >= args.timeout]
+    if late:
+        log.error("--kill %s: at or after the episode's %g s time limit (--timeout): it would never happen",
+                  ", ".join(late), args.timeout)
         return 2
     t0 = time.perf_counter()
     with open_stack(cfg, drone_id=args.drone_id, port=args.port, log_level=args.service_log_level) as running:
@@ -101,7 +111,7 @@ def cmd_land(args: argparse.Namespace) -> int:
         except (RuntimeError, TimeoutError) as exc:  # the sim died, or no result in the wall limit
             log.error("%s", exc)
             return 1
-    sys.stderr.write(summary_line(result, startup_s) + "\n")
+    sys.stderr.write(summary_line(result, startup_s, running.killed_at_s) + "\n")
     sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1
@@ -152,6 +162,12 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     for w in worlds or []:
         if w not in WORLDS:
             raise SystemExit(f"llmland experiment: unknown world {w!r}; choose from {', '.join(WORLDS)}")
+    if args.experiment == "exp1" and worlds and worlds != ["open_field"]:  # was silently ignored
+        raise SystemExit("llmland experiment: exp1 is the paper's open-field experiment; --worlds is for "
+                         "exp2 (the three worlds) and exp3")
+    if args.jobs > (os.cpu_count() or 1):
+        log.warning("--jobs %d on %d cores: the episodes share the cores (each lockstep episode keeps about "
+                    "one busy), so the experiment takes as long or longer", args.jobs, os.cpu_count() or 1)
     try:
         summary = run_experiment(
             args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,
@@ -181,12 +197,14 @@ def cmd_up(args: argparse.Namespace) -> int:
         fleet.start(args.services)
         fleet.wait_alive(bus, timeout_s=args.start_timeout, interrupted=stop)
         flies = {"sim", "planner"} <= set(args.services) or {"sim", "pilot"} <= set(args.services)
-        hint = (f"send a mission with `llmland mission --world open_field --seed 1 --drone-id {drones[0]}`"
+        hint = (f"send a mission with `llmland mission --world open_field --seed 1 --drone-id {drones[0]} "
+                f"--connect {hub_endpoint(port)}`"
                 if flies else "no sim with a planner or pilot here: missions need them (on this bus or another)")
         log.info("services up on %s for drone(s) %s: %s — %s; Ctrl-C stops all", hub_endpoint(port),
                  ", ".join(drones), ", ".join(args.services), hint)
         if "reasoner" in args.services:
-            log.info("reasoner HTTP API on %s (POST an image to /v1/spec; interactive docs at /docs)", api_url)
+            log.info("reasoner HTTP API on %s (POST an image to /v1/spec; OpenAPI schema at /openapi.json, "
+                     "Swagger UI at /docs, its scripts from a CDN)", api_url)
         served, next_log = SpecsServed(bus), time.monotonic() + SERVED_LOG_PERIOD_S
         logged: dict[str, int] = {}
         while not stop.wait(0.5):
@@ -286,7 +304,8 @@ def _episode_args(p: argparse.ArgumentParser) -> None:
                         "conservative (geometry, every obstacle a person), reference (no obstacles)")
     p.add_argument("--clock", choices=["lockstep", "realtime"], default="lockstep",
                    help="lockstep (default: latency-faithful, faster than real time) or realtime")
-    p.add_argument("--timeout", type=episode_seconds, default=90.0, help="episode time limit (sim seconds)")
+    p.add_argument("--timeout", type=episode_seconds, default=90.0,
+                   help="episode time limit (sim seconds; default 90)")
     p.add_argument("--pedestrians", type=pedestrian_count, default=None,
                    help="number of pedestrians (default: the world's)")
     p.add_argument("--specs", choices=["pipeline", "oracle", "none"], default="pipeline",
@@ -349,15 +368,17 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
     exp.add_argument("--methods", type=names_from(METHODS),
                      help=f"comma-separated, default all of: {', '.join(METHODS[1:])}")
     exp.add_argument("--worlds", type=names_from(WORLDS),
-                     help=f"comma-separated (exp2), default all of: {', '.join(WORLDS)}")
+                     help=f"comma-separated (exp2 and exp3; exp1 is open_field), default all of: "
+                          f"{', '.join(WORLDS)} (exp3: open_field)")
     exp.add_argument("--latency-model", type=latency_model, default=None,
                      help="measured (default), fixed:<ms> or normal:<mean_ms>,<sd_ms>: replays other hardware")
     exp.add_argument("--specs", choices=["pipeline", "oracle"], default="pipeline",
                      help="semantic methods: real perception (default) or specs given from ground truth")
     exp.add_argument("--gguf", type=gguf_file, action="append", default=[],
                      help="exp3: another GGUF model to compare (repeat)")
-    exp.add_argument("--jobs", type=positive_int, default=1,
-                     help="episodes in parallel, each its own stack and bus port")
+    exp.add_argument("--jobs", type=job_count, default=1,
+                     help="episodes in parallel, each its own stack and bus port (default 1; a lockstep "
+                          "episode keeps about one core busy: more jobs than cores only share them)")
     exp.add_argument("--timeout", type=episode_seconds, default=90.0,
                      help="episode time limit (sim seconds; default 90, the paper's; a landing takes 20-60 s)")
     exp.add_argument("--rrd", action="store_true", help="a Rerun recording per trial in OUT/rrd/")
@@ -372,12 +393,13 @@ def _add_experiment_parser(sub: argparse._SubParsersAction) -> None:  # type: ig
 def _add_up_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     up = sub.add_parser("up", help="start the services locally, one process each; Ctrl-C stops all")
     up.add_argument("--services", nargs="+", default=["sim", "planner", "vle", "reasoner"],
-                    choices=sorted(SERVICE_MODULES))
+                    choices=sorted(SERVICE_MODULES), help="which to start (default: sim planner vle reasoner)")
     one_or_many = up.add_mutually_exclusive_group()
     one_or_many.add_argument("--drone-id", type=drone_id, default="d0", help="the drone's id (one drone)")
     one_or_many.add_argument("--drones", type=drone_count, default=None, metavar="N",
                     help="N drones d0…d{N-1}, each its own sim, planner and VLE, on one reasoner")
-    up.add_argument("--port", type=port, default=7447, help="hub port on 127.0.0.1 (clients connect here)")
+    up.add_argument("--port", type=port, default=7447,
+                    help="hub port on 127.0.0.1 (default 7447; `llmland mission --connect tcp/127.0.0.1:PORT`)")
     up.add_argument("--log-dir", type=writable_dir,
                     help="service logs: DIR/<service>.log (shared), DIR/<drone>/<service>.log")
     up.add_argument("--start-timeout", type=positive_seconds, default=180.0, help="seconds to wait for every service")
@@ -412,7 +434,8 @@ def _add_bench_parser(sub: argparse._SubParsersAction) -> None:  # type: ignore[
                            epilog="benchmarks:\n" + "\n".join(f"  {k:9s} {v}" for k, v in BENCHMARKS.items()))
     bench.add_argument("what", choices=list(BENCHMARKS), help="which benchmark (listed below)")
     bench.add_argument("--json", action="store_true", help="print the figures as one JSON object")
-    bench.add_argument("--quick", action="store_true", help="fewer samples (for tests)")
+    bench.add_argument("--quick", action="store_true",
+                       help="fewer samples, and for `reasoner` only the rag mode and shorter fleet runs (for tests)")
     bench.set_defaults(func=cmd_bench)
 
 

@@ -52,6 +52,11 @@ from llmland.cli import build_parser
     (["up", "--drones", "1000"], "at most 32 drones"),
     # was silently ignored: `up --drones 2 --drone-id d3` started d0 and d1
     (["up", "--drones", "2", "--drone-id", "d3"], "not allowed with argument"),
+    # a newcomer on the AMX Xeon: 100 stacks started on 2 cores; an empty time killed at 0 s;
+    # an unknown service was a log line after argparse
+    (["experiment", "exp1", "--jobs", "100", "--out", "{tmp}"], "--jobs: at most 16 jobs"),
+    (["land", "--kill", "reasoner@"], "no time after '@'"),
+    (["land", "--kill", "foo@3"], "'foo' is no service a fault run kills"),
 ])
 def test_bad_values_are_usage_errors(argv: list[str], says: str, tmp_path: Path,
                                      capsys: pytest.CaptureFixture[str]) -> None:
@@ -143,3 +148,32 @@ def test_bad_service_settings_are_one_line_each(monkeypatch: pytest.MonkeyPatch,
     assert exit_.value.code == BAD_SETTINGS_EXIT
     assert "bad setting LLMLAND_REASONER_HTTP_PORT" in caplog.text and "Traceback" not in caplog.text
 
+
+
+def test_a_fault_that_could_never_happen_is_refused_before_anything_starts(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """``--kill reasoner@1e9`` was accepted and never fired: the episode ends first."""
+    args = build_parser().parse_args(["land", "--kill", "reasoner@100"])
+    assert args.func(args) == 2
+    assert "at or after the episode's 90 s time limit" in caplog.text
+
+
+def test_exp1_refuses_other_worlds() -> None:
+    """``experiment exp1 --worlds urban`` flew open_field without a word."""
+    args = build_parser().parse_args(["experiment", "exp1", "--worlds", "urban", "--out", "/tmp/unused"])
+    with pytest.raises(SystemExit, match="exp1 is the paper's open-field experiment"):
+        args.func(args)
+
+
+def test_the_summary_line_names_a_fault_run() -> None:
+    from llmland_schemas import EpisodeResult
+
+    from llmland.cli import summary_line
+
+    r = EpisodeResult(drone_id="d0", stamp=30.0, seq=1500, episode_id="e", world="urban", seed=3, method="llm-land",
+                      clock="lockstep", success=True, outcome="landed", touchdown_error_m=0.0, time_to_land_s=30.0,
+                      min_person_distance_m={"person_0": 1.96}, close_calls=0, collisions=[], sim_time_s=30.0,
+                      wall_time_s=12.0, perception_degraded=True, perception_degraded_s=25.0)
+    line = summary_line(r, killed_at_s={"reasoner": 5.02})
+    assert "perception degraded 25.0 s; fault run: reasoner killed at 5.0 s" in line
+    assert "fault run" not in summary_line(r)

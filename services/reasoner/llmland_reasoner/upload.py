@@ -75,7 +75,8 @@ def check_image(data: bytes, max_bytes: int, max_pixels: int = MAX_PIXELS) -> No
     if not data:
         raise HTTPException(400, "empty upload: send a PNG or JPEG image in the 'image' field")
     if len(data) > max_bytes:
-        raise HTTPException(413, f"image of {len(data)} bytes exceeds the limit of {max_bytes} bytes")
+        # the upload is read only up to one byte past the limit: its whole size is not known here
+        raise HTTPException(413, f"image larger than the limit of {max_bytes} bytes")
     if not (data.startswith(PNG_MAGIC) or data.startswith(JPEG_MAGIC)):
         raise HTTPException(415, "not a PNG or JPEG image")
     size = image_size(data)
