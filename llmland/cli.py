@@ -293,8 +293,17 @@ def _print_figures(figures: Mapping[str, object], *, as_json: bool) -> None:
     if as_json:
         sys.stdout.write(json.dumps(figures, indent=2) + "\n")
     else:
-        for k, v in figures.items():
+        for k, v in _flat(figures):
             sys.stdout.write(f"{k:40s} {v}\n")
+
+
+def _flat(figures: Mapping[str, object], prefix: str = "") -> Iterator[tuple[str, object]]:
+    """``(name, value)`` pairs, nested mappings as ``outer.inner`` names (one line each)."""
+    for k, v in figures.items():
+        if isinstance(v, Mapping):
+            yield from _flat(v, f"{prefix}{k}.")
+        else:
+            yield f"{prefix}{k}", v
 
 
 def _episode_args(p: argparse.ArgumentParser) -> None:
@@ -465,7 +474,8 @@ def cmd_ceiling(args: argparse.Namespace) -> int:
                 row = seed_ceiling(world, seed, args.timeout, settings, args.pedestrians)
                 rows.append(row)
                 opens = "never opens" if row.first_open_s is None else f"first opens at {row.first_open_s:.1f} s"
-                log.info("%s seed %d: the gate %s (open %.0f %% of the time; closest person %.1f m)",
+                log.info("%s seed %d: the gate %s (open %.0f %% of the time; closest any person came to the "
+                         "landing target: %.1f m, horizontally)",
                          world, seed, opens, 100 * row.open_fraction, row.closest_person_m)
     _print_figures(summary(rows, args.timeout, settings), as_json=args.json)
     return 0

@@ -177,3 +177,12 @@ def test_the_summary_line_names_a_fault_run() -> None:
     line = summary_line(r, killed_at_s={"reasoner": 5.02})
     assert "perception degraded 25.0 s; fault run: reasoner killed at 5.0 s" in line
     assert "fault run" not in summary_line(r)
+
+
+def test_figures_print_nested_ones_one_line_each(capsys: pytest.CaptureFixture[str]) -> None:
+    """``llmland ceiling`` without --json printed a world's figures as a raw Python dict."""
+    from llmland.cli import _print_figures
+
+    _print_figures({"timeout_s": 90.0, "urban": {"seeds": 3, "never_opens": [11]}}, as_json=False)
+    lines = [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert lines == [["timeout_s", "90.0"], ["urban.seeds", "3"], ["urban.never_opens", "[11]"]]
