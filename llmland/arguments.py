@@ -193,7 +193,7 @@ def names_from(known: list[str]):  # type: ignore[no-untyped-def]
 
 
 #: the services a fault run (``--kill``) may kill: the sim is the episode itself
-KILLABLE_SERVICES = ("vle", "reasoner", "planner")
+KILLABLE_SERVICES = ("vle", "reasoner", "planner", "pilot")
 
 
 def fault(text: str) -> tuple[str, float]:

@@ -11,7 +11,7 @@ import signal
 import socket
 import sys
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -72,11 +72,12 @@ def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | N
                         scenario=args.scenario)
 
 
-def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: Mapping[str, float] | None = None
-                 ) -> str:
+def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: Mapping[str, float] | None = None,
+                 kills: Sequence[tuple[str, float]] = ()) -> str:
     """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time
-    (and the services' start-up before it, ``startup_s``, when given; the services a fault run
-    killed and the sim time (s) at which they died, ``killed_at_s``)."""
+    (and the services' start-up before it, ``startup_s``, when given); last, a fault run's kills
+    (``kills``: service, sim s asked) with the sim time (s) each service died at (``killed_at_s``),
+    or that it never fired (the episode ended first)."""
     td = f"{r.touchdown_error_m:.2f} m" if r.touchdown_error_m is not None else "—"
     closest = f"{min(r.min_person_distance_m.values()):.2f} m" if r.min_person_distance_m else "no person"
     lat = f"{r.spec_latency_ms_mean:.0f} ms" if r.spec_latency_ms_mean is not None else "—"
@@ -84,8 +85,10 @@ def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: 
     return (f"{r.method} {r.world} seed {r.seed}: {r.outcome.upper()} — touchdown error {td}, "
             f"closest person {closest}, spec latency {lat}, {r.sim_time_s:.1f} s flown in "
             f"{r.wall_time_s:.1f} s wall{degraded}"
-            + "".join(f"; fault run: {name} killed at {at:.1f} s" for name, at in (killed_at_s or {}).items())
-            + (f" (after {startup_s:.1f} s of service start-up)" if startup_s is not None else ""))
+            + (f" (after {startup_s:.1f} s of service start-up)" if startup_s is not None else "")
+            + "".join(f"; fault run: {name} killed at {killed_at_s[name]:.1f} s"
+                      if killed_at_s and name in killed_at_s else f"; fault run: {name}@{at:g} never fired"
+                      for name, at in kills))
 
 
 def cmd_land(args: argparse.Namespace) -> int:
@@ -93,8 +96,8 @@ def cmd_land(args: argparse.Namespace) -> int:
     cfg = _config(args)
     absent = [service for service, _ in args.kill if service not in cfg.services()]
     if absent:
-        log.error("--kill %s: method %s runs no %s (it runs %s)", ", ".join(absent), args.method,
-                  ", ".join(absent), ", ".join(cfg.services()))
+        log.error("--kill %s: this stack (method %s, --specs %s) runs no %s; it runs %s", ", ".join(absent),
+                  args.method, args.specs, ", ".join(absent), ", ".join(cfg.services()))
         return 2
     late = [f"{service}@{at:g}" for service, at in args.kill if at >= args.timeout]
     if late:
@@ -111,7 +114,7 @@ def cmd_land(args: argparse.Namespace) -> int:
         except (RuntimeError, TimeoutError) as exc:  # the sim died, or no result in the wall limit
             log.error("%s", exc)
             return 1
-    sys.stderr.write(summary_line(result, startup_s, running.killed_at_s) + "\n")
+    sys.stderr.write(summary_line(result, startup_s, running.killed_at_s, args.kill) + "\n")
     sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1
@@ -165,9 +168,14 @@ def cmd_experiment(args: argparse.Namespace) -> int:
     if args.experiment == "exp1" and worlds and worlds != ["open_field"]:  # was silently ignored
         raise SystemExit("llmland experiment: exp1 is the paper's open-field experiment; --worlds is for "
                          "exp2 (the three worlds) and exp3")
-    if args.jobs > (os.cpu_count() or 1):
-        log.warning("--jobs %d on %d cores: the episodes share the cores (each lockstep episode keeps about "
-                    "one busy), so the experiment takes as long or longer", args.jobs, os.cpu_count() or 1)
+    if args.experiment == "exp3" and methods and methods != ["llm-land"]:  # was silently ignored
+        raise SystemExit("llmland experiment: exp3 compares LLM backends under llm-land; --methods is for exp1 "
+                         "and exp2 (other models: --gguf)")
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if args.jobs > cores:
+        log.warning("--jobs %d on %d cores: the episodes share the cores (each lockstep episode keeps about one "
+                    "busy): no faster, and with the measured latency model slower perception changes the "
+                    "episodes themselves", args.jobs, cores)
     try:
         summary = run_experiment(
             args.experiment, Path(args.out), trials=args.trials, seed_base=args.seed_base, methods=methods,

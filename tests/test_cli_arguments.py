@@ -78,12 +78,17 @@ def test_bench_help_says_what_each_benchmark_measures(capsys: pytest.CaptureFixt
         assert f"{name} " in out and what in out
 
 
-def test_benchmark_figures_name_the_cpu() -> None:
+def test_benchmark_figures_name_the_cpu(tmp_path: Path) -> None:
     """Figures differ by CPU (AVX-512, AMX): every benchmark's machine line names it."""
-    from llmland.bench import machine
+    from llmland.bench import _cpu, machine
 
-    m = machine()
-    assert m["machine"].startswith(__import__("platform").machine()) and m["cpu"]
+    info = tmp_path / "cpuinfo"
+    info.write_text("processor\t: 0\nmodel name\t: Intel(R) Xeon(R) Processor\n"
+                    "flags\t\t: fpu avx2 avx512f avx512bw amx_bf16 amx_tile amx_int8\n")
+    assert _cpu(str(info)) == "Intel(R) Xeon(R) Processor (avx2, avx512f, amx_tile)"
+    info.write_text("model name\t: AMD EPYC\nflags\t\t: fpu avx2 avx512f\n")
+    assert _cpu(str(info)) == "AMD EPYC (avx2, avx512f)"
+    assert set(machine()) == {"machine", "cpu"}
 
 
 def test_good_values_parse() -> None:
@@ -150,18 +155,33 @@ def test_bad_service_settings_are_one_line_each(monkeypatch: pytest.MonkeyPatch,
 
 
 
+def _must_not_start(*_: object, **__: object) -> None:
+    raise AssertionError("started work a usage check should have refused")
+
+
 def test_a_fault_that_could_never_happen_is_refused_before_anything_starts(
-        caplog: pytest.LogCaptureFixture) -> None:
+        caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--kill reasoner@1e9`` was accepted and never fired: the episode ends first."""
+    monkeypatch.setattr("llmland.cli.open_stack", _must_not_start)
     args = build_parser().parse_args(["land", "--kill", "reasoner@100"])
     assert args.func(args) == 2
     assert "at or after the episode's 90 s time limit" in caplog.text
+    args = build_parser().parse_args(["land", "--specs", "oracle", "--kill", "vle@5"])
+    assert args.func(args) == 2
+    assert "this stack (method llm-land, --specs oracle) runs no vle" in caplog.text
 
 
-def test_exp1_refuses_other_worlds() -> None:
-    """``experiment exp1 --worlds urban`` flew open_field without a word."""
-    args = build_parser().parse_args(["experiment", "exp1", "--worlds", "urban", "--out", "/tmp/unused"])
-    with pytest.raises(SystemExit, match="exp1 is the paper's open-field experiment"):
+@pytest.mark.parametrize(("argv", "says"), [
+    (["exp1", "--worlds", "urban"], "exp1 is the paper's open-field experiment"),  # flew open_field silently
+    (["exp3", "--methods", "baseline"], "exp3 compares LLM backends under llm-land"),
+])
+def test_experiments_refuse_options_they_would_ignore(argv: list[str], says: str, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    import llmland.experiment
+
+    monkeypatch.setattr(llmland.experiment, "run_experiment", _must_not_start)
+    args = build_parser().parse_args(["experiment", *argv, "--out", str(tmp_path)])
+    with pytest.raises(SystemExit, match=says):
         args.func(args)
 
 
@@ -174,8 +194,9 @@ def test_the_summary_line_names_a_fault_run() -> None:
                       clock="lockstep", success=True, outcome="landed", touchdown_error_m=0.0, time_to_land_s=30.0,
                       min_person_distance_m={"person_0": 1.96}, close_calls=0, collisions=[], sim_time_s=30.0,
                       wall_time_s=12.0, perception_degraded=True, perception_degraded_s=25.0)
-    line = summary_line(r, killed_at_s={"reasoner": 5.02})
-    assert "perception degraded 25.0 s; fault run: reasoner killed at 5.0 s" in line
+    line = summary_line(r, 3.1, killed_at_s={"reasoner": 5.02}, kills=[("reasoner", 5.0), ("planner", 50.0)])
+    assert line.endswith("(after 3.1 s of service start-up); fault run: reasoner killed at 5.0 s; "
+                         "fault run: planner@50 never fired")
     assert "fault run" not in summary_line(r)
 
 

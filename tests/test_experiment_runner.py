@@ -248,7 +248,10 @@ def test_an_interrupted_run_leaves_its_meta_and_a_resume_adds_to_it(
         experiment.run_experiment("exp1", tmp_path, trials=3, methods=["llm-land"], machine="m")
     meta = json.loads((tmp_path / "meta.json").read_text())
     assert meta["interrupted"] is True and meta["trials"] is None and meta["code"]
-    assert meta["command"] == "llmland experiment exp1 --trials 3" and meta["wall_time_s"] >= 0.0
+    assert meta["command"] == "llmland experiment exp1 --trials 3" and meta["wall_time_s"] >= 0.4  # the sleep
+    interrupted_wall = meta["wall_time_s"]
+    meta["code"] = "aaa"  # as if the first part flew another version
+    (tmp_path / "meta.json").write_text(json.dumps(meta))
 
     monkeypatch.setattr(ExperimentRunner, "_fly", real_fly)
     monkeypatch.setattr(experiment.sys, "argv", ["llmland", "experiment", "exp1", "--trials", "3", "--resume"])
@@ -257,4 +260,6 @@ def test_an_interrupted_run_leaves_its_meta_and_a_resume_adds_to_it(
     assert meta["command"] == "llmland experiment exp1 --trials 3"  # the first command, not the resume
     assert meta["resumed_with"] == ["llmland experiment exp1 --trials 3 --resume"]
     assert meta["trials"] == 3 and "interrupted" not in meta
+    assert meta["wall_time_s"] >= interrupted_wall and meta["code"].startswith("aaa then ")
+    assert experiment._code_parts("aaa then bbb", "bbb") == "aaa then bbb"  # a repeat named once
     assert "resumed with `llmland experiment exp1 --trials 3 --resume`" in (tmp_path / "results.md").read_text()

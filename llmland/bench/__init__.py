@@ -36,11 +36,11 @@ def machine() -> dict[str, Any]:
                        f"{platform.python_version()}", "cpu": _cpu()}
 
 
-def _cpu() -> str:
-    """``"<model name> (avx2, avx512f, amx_tile)"`` from ``/proc/cpuinfo``; the processor string
-    alone where that file is missing (not Linux)."""
+def _cpu(cpuinfo: str = "/proc/cpuinfo") -> str:
+    """``"<model name> (avx2, avx512f, amx_tile)"`` from ``cpuinfo`` (Linux x86); the processor
+    string alone where that file is missing (not Linux)."""
     try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
+        with open(cpuinfo, encoding="utf-8") as f:
             info = f.read()
     except OSError:
         return platform.processor() or "unknown"

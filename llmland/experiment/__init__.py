@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import shlex
 import shutil
 import subprocess
@@ -90,7 +91,7 @@ def _write_meta(path: Path, previous: dict[str, Any], *, code: str, wall_s: floa
         "trials": trials,
         "machine": machine,
         # a resumed run may fly two versions: both are named
-        "code": code if previous.get("code", code) == code else f"{previous['code']} then {code}",
+        "code": _code_parts(str(previous.get("code", code)), code),
         "jobs": jobs,
         "wall_time_s": round(float(previous.get("wall_time_s", 0.0)) + wall_s, 1),
     }
@@ -101,8 +102,29 @@ def _write_meta(path: Path, previous: dict[str, Any], *, code: str, wall_s: floa
         meta["resumed_with"] = resumed
     if trials is None:
         meta["interrupted"] = True
-    path.write_text(json.dumps(meta, indent=2) + "\n")
+    tmp = path.with_suffix(".json.tmp")  # a second Ctrl-C mid-write must not leave a cut file
+    tmp.write_text(json.dumps(meta, indent=2) + "\n")
+    os.replace(tmp, path)
     return meta
+
+
+def _code_parts(previous: str, code: str) -> str:
+    """The versions the parts of a run flew, in order, a repeat named once ("a then b", not
+    "a then b then b")."""
+    parts = previous.split(" then ")
+    return " then ".join(parts if parts[-1] == code else [*parts, code])
+
+
+def _previous_meta(path: Path) -> dict[str, Any]:
+    """An earlier part's ``meta.json``; ``{}`` (with a warning) where it cannot be read."""
+    if not path.exists():
+        return {}
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        log.warning("%s cannot be read (%s): its command, code and wall time are not carried on", path, exc)
+        return {}
+    return meta if isinstance(meta, dict) else {}
 
 
 def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: int = 1,
@@ -133,24 +155,26 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     if runner.skipped:
         log.info("resuming: %d of %d trials already in %s", runner.skipped, len(todo), runner.csv_path)
     meta_path = out / "meta.json"
-    previous = json.loads(meta_path.read_text()) if resume and meta_path.exists() else {}
+    previous = _previous_meta(meta_path) if resume else {}
+    seeds = f"{seed_base}–{seed_base + trials - 1}"
     t0 = time.perf_counter()
+    wall: float | None = None
     try:
         wall = runner.run()
+        keys = {t.key for t in todo}
+        recorded = [r for r in read_rows(runner.csv_path) if row_key(r) in keys]
+        rows = [r for r in recorded if r["outcome"] != "error"]
+        summary = summarize(experiment, rows, default_lm)
     except BaseException:  # Ctrl-C, a crash: what flew so far is still accounted, for --resume
-        _write_meta(meta_path, previous, code=code, wall_s=time.perf_counter() - t0, jobs=jobs, machine=machine,
-                    seeds=f"{seed_base}–{seed_base + trials - 1}", trials=None)
+        _write_meta(meta_path, previous, code=code, wall_s=time.perf_counter() - t0 if wall is None else wall,
+                    jobs=jobs, machine=machine, seeds=seeds, trials=None)
         raise
-    keys = {t.key for t in todo}
-    recorded = [r for r in read_rows(runner.csv_path) if row_key(r) in keys]
-    rows = [r for r in recorded if r["outcome"] != "error"]
-    summary = summarize(experiment, rows, default_lm)
     seen = {row_key(r) for r in recorded}
     names = {t.key: t.name for t in todo}
     summary["errored_trials"] = {names[row_key(r)]: r["episode_id"] for r in recorded if r["outcome"] == "error"}
     summary["missing_trials"] = [t.name for t in todo if t.key not in seen]
-    meta = _write_meta(meta_path, previous, code=code, wall_s=wall, jobs=jobs, machine=machine,
-                       seeds=f"{seed_base}–{seed_base + trials - 1}", trials=len(rows))
+    meta = _write_meta(meta_path, previous, code=code, wall_s=wall, jobs=jobs, machine=machine, seeds=seeds,
+                       trials=len(rows))
     write_report(out, summary, meta)
     for png in write_plots(out, summary, rows):
         log.info("plot %s", png)
