@@ -97,28 +97,27 @@ def seed_list(text: str) -> list[int]:
     return seeds
 
 
+def _count(text: str, low: int, high: int, what: str) -> int:
+    """An integer from ``low`` to ``high``; ``what`` names the things counted in the message."""
+    value = _int_at_least(text, low)
+    if value > high:
+        raise argparse.ArgumentTypeError(f"at most {high} {what}, got {value}")
+    return value
+
+
 def pedestrian_count(text: str) -> int:
     """A number of pedestrians, 0 to :data:`MAX_PEDESTRIANS`."""
-    value = non_negative_int(text)
-    if value > MAX_PEDESTRIANS:
-        raise argparse.ArgumentTypeError(f"at most {MAX_PEDESTRIANS} pedestrians, got {value}")
-    return value
+    return _count(text, 0, MAX_PEDESTRIANS, "pedestrians")
 
 
 def job_count(text: str) -> int:
     """Episodes in parallel, 1 to :data:`MAX_JOBS` (each is a whole stack of four processes)."""
-    value = positive_int(text)
-    if value > MAX_JOBS:
-        raise argparse.ArgumentTypeError(f"at most {MAX_JOBS} jobs (each a stack of ≈ 1.2 GB), got {value}")
-    return value
+    return _count(text, 1, MAX_JOBS, "jobs (each a stack of ≈ 1.2 GB)")
 
 
 def drone_count(text: str) -> int:
     """A number of drones, 1 to :data:`MAX_DRONES`."""
-    value = positive_int(text)
-    if value > MAX_DRONES:
-        raise argparse.ArgumentTypeError(f"at most {MAX_DRONES} drones, got {value}")
-    return value
+    return _count(text, 1, MAX_DRONES, "drones")
 
 
 def writable_dir(text: str) -> str:

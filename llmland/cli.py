@@ -14,6 +14,7 @@ import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from urllib.parse import urlsplit
 
 from llmland_schemas import EpisodeResult, MissionGoal
 from llmland_schemas.bus import DEFAULT_ENDPOINT
@@ -239,18 +240,17 @@ def _reasoner_http_port_free() -> str:
     """The reasoner's HTTP address (as :func:`_reasoner_http_url`), or :class:`StartupError` when its
     port is taken (another stack's reasoner: it would exit at once and take this stack down, after
     ``up`` had printed the other one's address)."""
-    from llmland_reasoner.settings import ReasonerSettings
-
-    settings = settings_or_exit(ReasonerSettings)
+    url = _reasoner_http_url()
+    address = urlsplit(url)
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
         probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds: TIME_WAIT is no owner
         try:
-            probe.bind((settings.http_host, settings.http_port))
+            probe.bind((address.hostname, address.port))
         except OSError as exc:
-            raise StartupError(f"the reasoner's HTTP port {settings.http_host}:{settings.http_port} is taken "
+            raise StartupError(f"the reasoner's HTTP port {address.netloc} is taken "
                                f"({exc.strerror}): another stack? Give this one LLMLAND_REASONER_HTTP_PORT=<free port> "
                                "(and --port)") from None
-    return f"http://{settings.http_host}:{settings.http_port}"
+    return url
 
 
 def cmd_mission(args: argparse.Namespace) -> int:

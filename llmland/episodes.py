@@ -53,6 +53,15 @@ class EpisodeRunner:
         """The episode this drone's sim flies now when it is not one sent here (the newest state's)."""
         return self._latest if self._latest is not None and self._latest not in self._mine else None
 
+    def _unlocked(self, check: Callable[[], None]) -> None:
+        """Run a wait's ``check`` without holding the condition: it may ask the bus (a liveliness
+        query, up to a second) while results and states arrive on the bus's callback threads."""
+        self._cond.release()
+        try:
+            check()
+        finally:
+            self._cond.acquire()
+
     def abort(self) -> None:
         """Make a waiting and every later :meth:`run` raise ``RuntimeError`` (an interrupted experiment)."""
         with self._cond:
@@ -79,19 +88,20 @@ class EpisodeRunner:
         with self._cond:
             while mission.episode_id not in self._started and mission.episode_id not in self._results:
                 self._check_aborted()
-                check()
+                self._unlocked(check)
                 if time.monotonic() > deadline:
                     self.stop(mission)  # it may still be queued behind another episode: not to be flown
                     raise TimeoutError(f"the sim did not start episode {mission.episode_id} within "
                                        f"{wall_timeout_s:.0f} s of wall time")
                 self.bus.publish(mission_key, mission)
-                self._cond.wait(0.5)
+                self._cond.wait_for(lambda: mission.episode_id in self._started or mission.episode_id in self._results,
+                                    0.5)  # a state or result that came during the check ends it at once
             while mission.episode_id not in self._results:
                 self._check_aborted()
-                check()
+                self._unlocked(check)
                 left = deadline - time.monotonic()
                 if left <= 0:
                     self.stop(mission)
                     raise TimeoutError(f"no result for episode {mission.episode_id} after {wall_timeout_s:.0f} s")
-                self._cond.wait(min(left, 1.0))
+                self._cond.wait_for(lambda: mission.episode_id in self._results, min(left, 1.0))
             return self._results.pop(mission.episode_id)

@@ -263,7 +263,7 @@ class Fleet:
 
     def wait_alive(self, bus: Bus, timeout_s: float = 60.0, interrupted: threading.Event | None = None) -> None:
         """Every stack's :meth:`Stack.wait_alive`; ``interrupted`` set (Ctrl-C, SIGTERM to ``up``)
-        ends the wait at once with :class:`StartupError` (it waited until every service was up)."""
+        ends the wait at once with ``KeyboardInterrupt`` (it waited until every service was up)."""
         deadline = time.monotonic() + timeout_s
         for st in self.stacks:
             if st.procs:

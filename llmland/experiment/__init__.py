@@ -158,7 +158,6 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
     previous = _previous_meta(meta_path) if resume else {}
     seeds = f"{seed_base}–{seed_base + trials - 1}"
     t0 = time.perf_counter()
-    wall: float | None = None
     try:
         wall = runner.run()
         keys = {t.key for t in todo}
@@ -166,8 +165,8 @@ def run_experiment(experiment: str, out: Path, *, trials: int = 50, seed_base: i
         rows = [r for r in recorded if r["outcome"] != "error"]
         summary = summarize(experiment, rows, default_lm)
     except BaseException:  # Ctrl-C, a crash: what flew so far is still accounted, for --resume
-        _write_meta(meta_path, previous, code=code, wall_s=time.perf_counter() - t0 if wall is None else wall,
-                    jobs=jobs, machine=machine, seeds=seeds, trials=None)
+        _write_meta(meta_path, previous, code=code, wall_s=time.perf_counter() - t0, jobs=jobs, machine=machine,
+                    seeds=seeds, trials=None)
         raise
     seen = {row_key(r) for r in recorded}
     names = {t.key: t.name for t in todo}

@@ -509,11 +509,16 @@ class MentionFinder:
         """:data:`_CARE_ORDER` of a word alone: its KB name's category, else its WordNet class; a
         word neither knows ranks as an animal, as careful as the unknown spec it would get ("a
         two seater" stays unknown, not WordNet's two-seater)."""
-        kb = self._kb_match([word], 0)
-        if kb is None and word.isalpha() and word not in FUNCTION_WORDS and not self.wordnet.is_known(word):
+        if (self._kb_match([word], 0) is None and word.isalpha() and word not in FUNCTION_WORDS
+                and not self.wordnet.is_known(word)):
             return _CARE_ORDER["animal"]
-        cls = kb[1].category if kb is not None else self.wordnet.noun_class(self.wordnet.lemma(word))
-        return _CARE_ORDER.get(cls or "", 0)
+        return _CARE_ORDER.get(self._class_of_word(word) or "", 0)
+
+    def _class_of_word(self, word: str) -> str | None:
+        """A word alone's class: its KB name's category ("people": the KB's), else the WordNet class
+        of its lemma; None where neither knows it."""
+        kb = self._kb_match([word], 0)
+        return kb[1].category if kb is not None else self.wordnet.noun_class(self.wordnet.lemma(word))
 
     def _closed_compound(self, word: str) -> str | None:
         """The class of a word WordNet lacks, written as two words it knows run together, by its
@@ -556,9 +561,7 @@ class MentionFinder:
                 best, best_count = lemma, count
         if best is None:
             return None
-        kb = self._kb_match([best], 0)
-        cls = kb[1].category if kb is not None else self.wordnet.noun_class(best)  # "people": the KB's
-        return "person" if cls == "person" else None
+        return "person" if self._class_of_word(best) == "person" else None
 
     def _derived(self, word: str) -> bool:
         """Whether ``word`` is a known word with a suffix (:data:`DERIVING_SUFFIXES`): a word the

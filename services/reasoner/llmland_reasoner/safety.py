@@ -204,8 +204,8 @@ def _make_entry(kb: KnowledgeBase, found: Found) -> KbEntry | None:
         entry = kb.get(found.kb_id)
     except KeyError:
         return None
-    text = found.text
-    return entry if any(text == m or text.startswith(m + " ") for m in entry.makes) else None
+    words = found.text.split()  # the mention's words, as tokenize wrote them; a make's too (as makes.py)
+    return entry if any(make and words[: len(make)] == make for make in map(tokenize, entry.makes)) else None
 
 
 #: The KB's two-wheelers, whose rider is the KB's cyclist (5 m: "a person riding a bicycle or

@@ -19,10 +19,10 @@ from .camera import MAX_IMAGE_SIDE_PX, CameraIntrinsics
 
 SCHEMA_VERSION: Literal[1] = 1
 
-#: The paper's default keep-out buffers (LLM-Land abstract): pedestrians 3 m, vehicles 5 m,
-#: with the minimum altitude (m) to overfly them.
 #: The longest episode a mission may ask for (sim seconds).
 MAX_EPISODE_S = 3600.0
+#: The paper's default keep-out buffers (LLM-Land abstract): pedestrians 3 m, vehicles 5 m,
+#: with the minimum altitude (m) to overfly them.
 PERSON_BUFFER_M = 3.0
 PERSON_Z_MIN_M = 3.0
 VEHICLE_BUFFER_M = 5.0
