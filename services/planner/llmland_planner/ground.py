@@ -67,6 +67,41 @@ class ReachFloor:
         return out + self.clearance_m
 
 
+@dataclass(frozen=True)
+class GroundSurface:
+    """The ground estimate frozen at one commit (:meth:`GroundMap.surface`): ``ground[i, j]`` (m)
+    over the cell with corner ``origin + (i, j) · cell_m``, ``outside_m`` off the grid.
+
+    ``lowest_m`` is no higher than the height anywhere (the minimum of both), so a point lower
+    than ``lowest_m + tolerance`` is ground without looking its cell up
+    (``llmland_schemas.depth.find_blobs``'s ``ground_floor_m``). Never changed in place: safe to
+    read on another thread while the map commits new points.
+    """
+
+    origin: FloatArray  # (2,) m
+    cell_m: float
+    ground: FloatArray  # (n, n) m
+    outside_m: float
+
+    @property
+    def lowest_m(self) -> float:
+        return min(float(self.ground.min()), self.outside_m)
+
+    def __call__(self, x: FloatArray, y: FloatArray) -> FloatArray:
+        """Ground height (m) under world points (vectorised over equal shapes)."""
+        xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        n = self.ground.shape[0]
+        # cell indices as floats, tested before any cast (a depth frame's points: one pass each);
+        # NaN fails every comparison and ±inf one of them, so they are outside and take the
+        # target's height
+        with np.errstate(invalid="ignore"):  # inf - inf in the index of a point that is outside
+            fi = np.floor((xa - self.origin[0]) / self.cell_m)
+            fj = np.floor((ya - self.origin[1]) / self.cell_m)
+            ok = (fi >= 0) & (fi < n) & (fj >= 0) & (fj < n)
+            flat = np.where(ok, fi * n + fj, 0.0).astype(np.intp)  # row-major cell index (exact in float)
+        return np.where(ok, self.ground.ravel().take(flat), self.outside_m)
+
+
 class GroundMap:
     """Lowest heights seen per cell around the target, and the ground envelope from them."""
 
@@ -85,14 +120,17 @@ class GroundMap:
         self._max_slope = max_slope
         self._floor_cache: tuple[FloatArray, tuple[float, float], ReachFloor] | None = None
         self._ground = np.full((self.n, self.n), self.centre[2])
+        self._surface = self._make_surface()
         self._dirty = False
-        self._staged: dict[tuple[float, str], FloatArray] = {}
+        self._staged: dict[tuple[float, str], FloatArray | None] = {}
         self._lock = threading.Lock()
 
     def stage(self, stamp_s: float, source: str, points_world: FloatArray) -> None:
-        """Hold a frame's points until :meth:`commit` reaches its stamp."""
+        """Hold a frame's points until :meth:`commit` reaches its stamp, as their lowest height per
+        cell (found here, on the frame's thread: a commit only takes the minimum of two grids)."""
+        minima = self._cell_minima(points_world)
         with self._lock:
-            self._staged[(stamp_s, source)] = np.asarray(points_world, dtype=float).reshape(-1, 3)
+            self._staged[(stamp_s, source)] = minima
 
     def commit(self, upto_s: float) -> None:
         """Fold in every staged frame stamped at or before ``upto_s`` (s, exactly: the caller allows
@@ -100,8 +138,8 @@ class GroundMap:
         with self._lock:
             due = sorted(k for k in self._staged if k[0] <= upto_s)
             frames = [self._staged.pop(k) for k in due]
-        for pts in frames:
-            self.add_points(pts)
+        for minima in frames:
+            self._fold(minima)
         with self._lock:
             self._refresh()
 
@@ -111,15 +149,28 @@ class GroundMap:
         inside = (i >= 0) & (i < self.n) & (j >= 0) & (j < self.n)
         return i, j, inside
 
-    def add_points(self, points_world: FloatArray) -> None:
-        """Fold points ``(..., 3)`` (NaN where invalid) into the per-cell minima."""
+    def _cell_minima(self, points_world: FloatArray) -> FloatArray | None:
+        """The lowest height (m) of points ``(..., 3)`` in each cell, ``inf`` where none fell,
+        as an (n, n) grid; None when no point is finite (NaN where invalid)."""
         p = np.asarray(points_world, dtype=float).reshape(-1, 3)
         p = p[np.all(np.isfinite(p), axis=1)]
         if p.size == 0:
-            return
+            return None
         i, j, inside = self._cells(p[:, 0], p[:, 1])
-        np.minimum.at(self._zmin, (i[inside], j[inside]), p[inside, 2])
+        minima = np.full((self.n, self.n), np.inf)
+        np.minimum.at(minima, (i[inside], j[inside]), p[inside, 2])
+        return minima
+
+    def _fold(self, minima: FloatArray | None) -> None:
+        """Lower the per-cell minima to ``minima`` (a :meth:`_cell_minima` grid) where lower."""
+        if minima is None:
+            return
+        np.minimum(self._zmin, minima, out=self._zmin)
         self._dirty = True
+
+    def add_points(self, points_world: FloatArray) -> None:
+        """Fold points ``(..., 3)`` (NaN where invalid) into the per-cell minima."""
+        self._fold(self._cell_minima(points_world))
 
     def _refresh(self) -> None:
         if not self._dirty:
@@ -128,7 +179,16 @@ class GroundMap:
         z = np.where(observed, self._zmin, 1e6)
         env = ndimage.grey_erosion(z, footprint=self._footprint, structure=self._cone, mode="nearest")
         self._ground = np.where(env < 1e5, env, self.centre[2])
+        self._surface = self._make_surface()
         self._dirty = False
+
+    def _make_surface(self) -> GroundSurface:
+        return GroundSurface(self.origin.copy(), self.cell, self._ground, float(self.centre[2]))
+
+    def surface(self) -> GroundSurface:
+        """The committed estimate as one frozen :class:`GroundSurface` (heights and their lower
+        bound from the same commit)."""
+        return self._surface
 
     def reach_floor(self, reach_m: float, clearance_m: float) -> ReachFloor:
         """The floor (m) ``clearance_m`` above the highest ground within ``reach_m`` horizontally.
@@ -158,13 +218,4 @@ class GroundMap:
 
     def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
         """Ground height (m) under world points (vectorised over equal shapes), committed points only."""
-        xa, ya = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
-        # cell indices as floats, tested before any cast (a depth frame's points: one pass each);
-        # NaN fails every comparison and ±inf one of them, so they are outside and take the
-        # target's height
-        with np.errstate(invalid="ignore"):  # inf - inf in the index of a point that is outside
-            fi = np.floor((xa - self.origin[0]) / self.cell)
-            fj = np.floor((ya - self.origin[1]) / self.cell)
-            ok = (fi >= 0) & (fi < self.n) & (fj >= 0) & (fj < self.n)
-            flat = np.where(ok, fi * self.n + fj, 0.0).astype(np.intp)  # row-major cell index (exact in float)
-        return np.where(ok, self._ground.ravel().take(flat), self.centre[2])
+        return self._surface(x, y)

@@ -139,10 +139,11 @@ class WorldModel:
             step = max(1, GROUND_POINT_STRIDE * s.blob_stride // stride)
             self.ground.stage(frame.header.stamp, frame.header.camera,
                               np.moveaxis(planes[:, ::step, ::step], 0, -1))
+        surface = self.ground.surface() if self.ground is not None else None  # one commit's heights
         blobs = find_blobs(frame.depth_m, frame.header.intrinsics, frame.T_world_camera, stride=stride,
                            min_points=min_points, max_range_m=s.max_range_m, ground_tol_m=s.ground_tolerance_m,
-                           points_planes=planes,
-                           ground_height_fn=self.ground.height if self.ground is not None else None)
+                           points_planes=planes, ground_height_fn=surface,
+                           ground_floor_m=surface.lowest_m if surface is not None else None)
         view = (blobs, frustum_fn(frame, s.max_range_m), frame)
         self._views.setdefault(frame.header.stamp, {})[frame.header.camera] = view
 

@@ -80,3 +80,47 @@ def test_a_path_over_a_mound_keeps_the_floor_above_it() -> None:
         np.linalg.norm(path.p - goal, axis=1) > cfg.clearance_radius_m)
     assert np.all(path.p[away, 2] >= floor(path.p[away, :2]) - 1e-9)
     assert path.p[:, 2].max() >= 0.8 + REACH_CEILING_M
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), frames=st.integers(1, 4))
+def test_staged_frames_fold_in_as_their_points_would(seed: int, frames: int) -> None:
+    """A frame staged as its per-cell minima and committed gives the estimate its points folded
+    in one by one would (the same lowest heights, bit for bit), NaN and off-grid points ignored;
+    the frozen surface's heights are those of :meth:`GroundMap.height` and its ``lowest_m`` is
+    no higher than any of them."""
+    rng = np.random.default_rng(seed)
+    staged, direct = GroundMap(TARGET), GroundMap(TARGET)
+    for k in range(frames):
+        pts = np.column_stack([rng.uniform(-60.0, 60.0, (500, 2)), rng.normal(0.0, 1.0, 500)])
+        pts[rng.random(500) < 0.1] = np.nan
+        staged.stage(0.1 * k, "down", pts)
+        np.minimum.at(direct._zmin, *_inside_cells(direct, pts))
+    staged.commit(1.0)
+    np.testing.assert_array_equal(staged._zmin, direct._zmin)
+    xy = rng.uniform(-50.0, 50.0, (2, 300))
+    surface = staged.surface()
+    np.testing.assert_array_equal(surface(xy[0], xy[1]), staged.height(xy[0], xy[1]))
+    assert surface.lowest_m <= float(np.min(surface(xy[0], xy[1])))
+    assert surface.lowest_m == min(float(staged._ground.min()), float(TARGET[2]))
+
+
+def _inside_cells(gm: GroundMap, pts: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+    """``np.minimum.at`` arguments folding the finite, on-grid points ``(N, 3)`` into ``gm``'s minima."""
+    p = pts[np.all(np.isfinite(pts), axis=1)]
+    i = np.floor((p[:, 0] - gm.origin[0]) / gm.cell).astype(np.int64)
+    j = np.floor((p[:, 1] - gm.origin[1]) / gm.cell).astype(np.int64)
+    inside = (i >= 0) & (i < gm.n) & (j >= 0) & (j < gm.n)
+    return (i[inside], j[inside]), p[inside, 2]
+
+
+def test_a_surface_is_the_commit_it_was_taken_at() -> None:
+    """A surface taken before a commit keeps that commit's heights (a frame's blobs look at one
+    estimate throughout, whatever the tick thread commits meanwhile)."""
+    gm = GroundMap(TARGET)
+    before = gm.surface()
+    gm.stage(0.0, "down", np.array([[1.5, 1.5, -2.0]]))
+    gm.commit(0.0)
+    assert float(before(np.array([1.5]), np.array([1.5]))[0]) == 0.0
+    assert float(gm.height(np.array([1.5]), np.array([1.5]))[0]) == -2.0
+    assert gm.surface().lowest_m == -2.0 and before.lowest_m == 0.0

@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
 from .arrays import BoolArray, FloatArray
 
@@ -36,6 +37,10 @@ log = logging.getLogger(__name__)
 
 GroundHeightFn = Callable[[FloatArray, FloatArray], FloatArray]
 """``(x_m, y_m) -> z_m``: ground height under world points, vectorised over equal shapes."""
+
+#: :func:`find_blobs` with ``ground_floor_m``: a point this much (m) below ``floor + tolerance``
+#: is ground without a lookup (far above the rounding of heights of a few hundred metres, ≈ 1e-13 m)
+GROUND_FLOOR_MARGIN_M = 1e-9
 
 
 @dataclass(frozen=True)
@@ -141,25 +146,57 @@ def ground_mask(
     return _ground_mask_planes(_planes(points_world), ground_height_fn, tol_m)
 
 
-def _ground_mask_planes(planes: FloatArray, ground_height_fn: GroundHeightFn | None, tol_m: float) -> BoolArray:
-    """:func:`ground_mask` of (3, ...) point planes."""
+def _ground_mask_planes(planes: FloatArray, ground_height_fn: GroundHeightFn | None, tol_m: float,
+                        floor_m: float | None = None) -> BoolArray:
+    """:func:`ground_mask` of (3, ...) point planes.
+
+    ``floor_m``: no lower than ``ground_height_fn`` anywhere (and the function never NaN); points
+    lower than ``floor_m + tol_m`` by :data:`GROUND_FLOOR_MARGIN_M` are ground without calling
+    the function, which sees the rest only. The same answer as without: such a point's height
+    over any ground at or above the floor is below the tolerance by far more than rounding.
+    """
     x, y, z = planes[0], planes[1], planes[2]
     if ground_height_fn is None:
-        height = z
-    else:
         with np.errstate(invalid="ignore"):
-            height = z - np.asarray(ground_height_fn(x, y), dtype=np.float64)
+            return np.asarray(z < tol_m)
+    if floor_m is None:
+        with np.errstate(invalid="ignore"):
+            return np.asarray(z - np.asarray(ground_height_fn(x, y), dtype=np.float64) < tol_m)
     with np.errstate(invalid="ignore"):
-        return np.asarray(height < tol_m)
+        mask = np.asarray(z < floor_m + tol_m - GROUND_FLOOR_MARGIN_M)  # NaN: asked below (not ground)
+    rest = np.flatnonzero(~mask)
+    if rest.size:
+        zr = z.reshape(-1)[rest]
+        with np.errstate(invalid="ignore"):
+            g = np.asarray(ground_height_fn(x.reshape(-1)[rest], y.reshape(-1)[rest]), dtype=np.float64)
+            mask.reshape(-1)[rest] = zr - g < tol_m
+    return mask
+
+
+#: :func:`_label_edges` labels the graph of the valid pixels alone while at most this fraction of
+#: the pixels are valid, the whole grid of pixels and edges above it (the same labels either way):
+#: on 400 × 400 pixels the graph took 0.73 against 3.7 ms at 2 % valid, 1.8 against 3.7 ms at
+#: 10 %, 5.2 against 3.8 ms at 20 % (``ndimage.label`` on the grid hardly depends on the fraction)
+SPARSE_LABEL_MAX_FRACTION = 0.1
 
 
 def _label_edges(planes: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
     """Connected components of ``valid`` pixels whose 4-neighbours are closer than ``gap_m`` in 3D.
 
-    ``planes``: (3, H, W) world points. Works on a (2H-1, 2W-1) grid where even cells are pixels
-    and odd cells the edges between them, so one ``ndimage.label`` pass respects depth
-    discontinuities. Returns (H, W) labels (0 = none) and the count.
+    ``planes``: (3, H, W) world points. Returns (H, W) labels (0 = none) and the count; labels
+    are numbered ``1…n`` in raster order of each component's first pixel (``ndimage.label``'s
+    order). Two ways, the same labels: a few valid pixels (a downward frame: 160 000 pixels,
+    about 2 % of them off the ground in Exp 1 seed 7) are labelled as a graph of those pixels and
+    the edges between two of them (:func:`_label_graph`); many, as a grid (:func:`_label_grid`).
     """
+    if np.count_nonzero(valid) <= SPARSE_LABEL_MAX_FRACTION * valid.size:
+        return _label_graph(planes, valid, gap_m)
+    return _label_grid(planes, valid, gap_m)
+
+
+def _label_grid(planes: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
+    """:func:`_label_edges` on a (2H-1, 2W-1) grid where even cells are pixels and odd cells the
+    edges between them, so one ``ndimage.label`` pass respects depth discontinuities."""
     h, w = valid.shape
     gap2 = gap_m * gap_m
     with np.errstate(invalid="ignore"):
@@ -173,6 +210,48 @@ def _label_edges(planes: FloatArray, valid: BoolArray, gap_m: float) -> tuple[ND
     return np.asarray(labels[::2, ::2], dtype=np.int32), int(n)
 
 
+def _label_graph(planes: FloatArray, valid: BoolArray, gap_m: float) -> tuple[NDArray[np.int32], int]:
+    """:func:`_label_edges` on the graph of the valid pixels only (nodes in raster order), each
+    edge's 3D distance summed as :func:`_squared_distance` sums it (the same bits, the same edges);
+    components numbered by their first node, ``ndimage.label``'s order."""
+    h, w = valid.shape
+    labels = np.zeros((h, w), dtype=np.int32)
+    nodes = np.flatnonzero(valid)
+    if nodes.size == 0:
+        return labels, 0
+    flat, gap2 = planes.reshape(3, -1), gap_m * gap_m
+    pairs = np.zeros((2, h, w), dtype=bool)  # [0]: the pixel and its right neighbour valid; [1]: and the one below
+    np.logical_and(valid[:, 1:], valid[:, :-1], out=pairs[0, :, :-1])
+    np.logical_and(valid[1:, :], valid[:-1, :], out=pairs[1, :-1, :])
+    index = np.empty(h * w, dtype=np.intp)  # pixel -> node
+    index[nodes] = np.arange(nodes.size)
+    ends = []
+    for k, step in enumerate((1, w)):
+        first = np.flatnonzero(pairs[k])
+        second = first + step
+        with np.errstate(invalid="ignore"):
+            near = _squared_distance(flat[:, second], flat[:, first]) < gap2  # NaN -> False
+        ends.append((index[first[near]], index[second[near]]))
+    a, b = np.concatenate([e[0] for e in ends]), np.concatenate([e[1] for e in ends])
+    graph = sparse.coo_matrix((np.ones(a.size, dtype=np.int8), (a, b)), shape=(nodes.size, nodes.size)).tocsr()
+    n, comp = csgraph.connected_components(graph, directed=False)
+    labels.reshape(-1)[nodes] = _by_first_node(comp.astype(np.int32, copy=False), n) + 1
+    return labels, int(n)
+
+
+def _by_first_node(comp: NDArray[np.int32], n: int) -> NDArray[np.int32]:
+    """Component numbers ``comp`` (per node, ``0…n-1``) renumbered in order of each component's
+    first node. scipy's traversal already numbers them so (its running maximum then grows by at
+    most one per node, checked in one pass); otherwise they are renumbered here."""
+    running = np.maximum.accumulate(comp)
+    if running[0] == 0 and np.all(np.diff(running) <= 1):
+        return comp
+    _, first = np.unique(comp, return_index=True)
+    rank = np.empty(n, dtype=np.int32)
+    rank[np.argsort(first, kind="stable")] = np.arange(n, dtype=np.int32)
+    return rank[comp]
+
+
 def find_blobs(
     depth_m: NDArray[np.floating],
     intrinsics: CameraIntrinsics,
@@ -184,6 +263,7 @@ def find_blobs(
     ground_tol_m: float = 0.15,
     cluster_gap_m: float = 0.6,
     ground_height_fn: GroundHeightFn | None = None,
+    ground_floor_m: float | None = None,
     points_world: FloatArray | None = None,
     points_planes: FloatArray | None = None,
 ) -> list[Blob]:
@@ -196,7 +276,10 @@ def find_blobs(
     Returns blobs sorted by decreasing ``n_points`` (``blob_id`` is the index in that list).
     ``points_world``: this image's :func:`backproject` with the same ``stride``, when the
     caller already has it; ``points_planes``: its :func:`backproject_planes` (no copy); not
-    both (``ValueError``). Note the neighbour spacing grows with range (``stride * range / fx``):
+    both (``ValueError``). ``ground_floor_m``: a height (m) no lower than ``ground_height_fn``
+    anywhere, which then never returns NaN: points clearly below ``floor + ground_tol_m`` are taken
+    as ground without calling it (the same blobs, less work: most of a downward frame is ground).
+    Note the neighbour spacing grows with range (``stride * range / fx``):
     keep ``cluster_gap_m`` above it at ``max_range_m`` or far objects fragment.
     """
     if points_planes is not None and points_world is not None:
@@ -207,10 +290,8 @@ def find_blobs(
         planes = _planes(points_world)
     else:
         planes = backproject_planes(depth_m, intrinsics, T_world_camera, stride)
-    cam = np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3]
-    with np.errstate(invalid="ignore"):
-        near = _squared_distance(planes, cam[:, None, None]) <= max_range_m * max_range_m
-    valid = near & ~_ground_mask_planes(planes, ground_height_fn, ground_tol_m)
+    valid = _obstacle_points(planes, np.asarray(T_world_camera, dtype=np.float64).reshape(4, 4)[:3, 3],
+                             max_range_m, _ground_mask_planes(planes, ground_height_fn, ground_tol_m, ground_floor_m))
     if not valid.any():
         return []
     labels, n = _label_edges(planes, valid, cluster_gap_m)
@@ -226,6 +307,19 @@ def find_blobs(
     blobs = _blobs(points, np.divmod(sel, labels.shape[1]), lab, stride, np.shape(depth_m), ground_height_fn)
     log.debug("find_blobs: %d clusters, %d kept (stride %d)", n, len(blobs), stride)
     return blobs
+
+
+def _obstacle_points(planes: FloatArray, cam_m: FloatArray, max_range_m: float, ground: BoolArray) -> BoolArray:
+    """(H, W) True where a point is off the ground and within ``max_range_m`` of the camera
+    ``cam_m (3,)`` (Euclidean, summed as :func:`_squared_distance` sums it; NaN: False). Only the
+    points off the ground are measured (on a downward frame, a few percent)."""
+    valid = np.zeros(ground.shape, dtype=bool)
+    rest = np.flatnonzero(~ground)
+    if rest.size:
+        with np.errstate(invalid="ignore"):
+            near = _squared_distance(planes.reshape(3, -1)[:, rest], cam_m[:, None]) <= max_range_m * max_range_m
+        valid.reshape(-1)[rest[near]] = True
+    return valid
 
 
 def _kept_cluster_points(

@@ -7,6 +7,8 @@ import time
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from llmland_schemas import CameraIntrinsics
 from llmland_schemas.depth import backproject, backproject_planes, find_blobs, ground_mask
 
@@ -205,3 +207,83 @@ def test_find_blobs_takes_one_form_of_given_points() -> None:
     with pytest.raises(ValueError, match="not both"):
         find_blobs(depth, K(), POSE, points_world=backproject(depth, K(), POSE),
                    points_planes=backproject_planes(depth, K(), POSE))
+
+
+@settings(max_examples=200, deadline=None)
+@given(h=st.integers(1, 24), w=st.integers(1, 24), valid_p=st.floats(0.0, 1.0), nan_p=st.floats(0.0, 0.3),
+       gap_m=st.floats(0.05, 4.0), seed=st.integers(0, 2**32 - 1))
+def test_graph_and_grid_labelling_agree(h: int, w: int, valid_p: float, nan_p: float, gap_m: float, seed: int) -> None:
+    """The two ways of labelling clusters give the same labels, numbered alike (raster order of a
+    cluster's first pixel), whatever the fraction of valid pixels, NaN points or a one-pixel-wide
+    image (rows must not wrap into each other, columns neither)."""
+    from llmland_schemas.depth import _label_graph, _label_grid
+
+    rng = np.random.default_rng(seed)
+    planes = rng.normal(0.0, rng.uniform(0.1, 2.0), (3, h, w))
+    planes[:, rng.random((h, w)) < nan_p] = np.nan
+    valid = rng.random((h, w)) < valid_p
+    grid_labels, grid_n = _label_grid(planes, valid, gap_m)
+    graph_labels, graph_n = _label_graph(planes, valid, gap_m)
+    assert graph_n == grid_n
+    np.testing.assert_array_equal(graph_labels, grid_labels)
+
+
+def test_sparse_and_dense_frames_take_both_labellings() -> None:
+    """A frame of a few obstacles is labelled as a graph, a frame full of them as a grid; each
+    gives what the other would."""
+    from llmland_schemas import depth as d
+
+    for boxes, expect_graph in ((BOXES, True), ([box(10.0, 0.0, 30.0, 30.0, 1.5)], False)):
+        planes = backproject_planes(raycast(POSE, boxes), K(), POSE, 2)
+        valid = planes[2] > 0.15
+        assert (np.count_nonzero(valid) <= d.SPARSE_LABEL_MAX_FRACTION * valid.size) == expect_graph
+        labels, n = d._label_edges(planes, valid, 0.6)
+        other = d._label_grid if expect_graph else d._label_graph
+        np.testing.assert_array_equal(labels, other(planes, valid, 0.6)[0])
+        assert n == other(planes, valid, 0.6)[1] > 0
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), floor_m=st.floats(-3.0, 3.0), tol_m=st.floats(0.0, 0.5))
+def test_a_ground_floor_changes_no_answer(seed: int, floor_m: float, tol_m: float) -> None:
+    """Points below the floor plus the tolerance are ground without a lookup: the same mask as
+    looking every point up, with points right at the boundary, NaN points and heights above and
+    at the floor."""
+    from llmland_schemas.depth import _ground_mask_planes
+
+    rng = np.random.default_rng(seed)
+    planes = rng.normal(0.0, 5.0, (3, 20, 30))
+    planes[2] = floor_m + rng.uniform(-1.0, 2.0, (20, 30))
+    planes[2, :, :3] = floor_m + tol_m  # at the boundary (ground at the floor)
+    planes[:, rng.random((20, 30)) < 0.1] = np.nan
+
+    def ground(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # at or above the floor everywhere
+        return floor_m + np.where(np.sin(x) * np.cos(y) > 0.0, 0.0, np.abs(np.sin(x + y)))
+
+    asked: list[int] = []
+
+    def counting(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        asked.append(np.size(x))
+        return ground(x, y)
+
+    full = _ground_mask_planes(planes, ground, tol_m)
+    np.testing.assert_array_equal(_ground_mask_planes(planes, counting, tol_m, floor_m), full)
+    assert sum(asked) <= planes[2].size
+
+
+def test_find_blobs_with_a_ground_floor_finds_the_same_blobs() -> None:
+    """On a raised scene (ground 0.5 m up): the same blobs with or without the floor."""
+    depth = raycast(POSE, BOXES)
+    raised = POSE.copy()
+    raised[2, 3] += 0.5
+
+    def ground(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return np.full_like(x, 0.5)
+
+    a = find_blobs(depth, K(), raised, ground_height_fn=ground)
+    b = find_blobs(depth, K(), raised, ground_height_fn=ground, ground_floor_m=0.5)
+    assert len(a) == len(b) == 2
+    for x, y in zip(a, b, strict=True):
+        for field in ("lo_m", "hi_m", "mean_m", "centroid_m"):
+            np.testing.assert_array_equal(getattr(x, field), getattr(y, field))
+        assert (x.n_points, x.bbox_px, x.footprint_radius_m) == (y.n_points, y.bbox_px, y.footprint_radius_m)
