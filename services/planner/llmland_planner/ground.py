@@ -168,10 +168,6 @@ class GroundMap:
         np.minimum(self._zmin, minima, out=self._zmin)
         self._dirty = True
 
-    def add_points(self, points_world: FloatArray) -> None:
-        """Fold points ``(..., 3)`` (NaN where invalid) into the per-cell minima."""
-        self._fold(self._cell_minima(points_world))
-
     def _refresh(self) -> None:
         if not self._dirty:
             return

@@ -150,7 +150,7 @@ def _ground_mask_planes(planes: FloatArray, ground_height_fn: GroundHeightFn | N
                         floor_m: float | None = None) -> BoolArray:
     """:func:`ground_mask` of (3, ...) point planes.
 
-    ``floor_m``: no lower than ``ground_height_fn`` anywhere (and the function never NaN); points
+    ``floor_m``: no higher than ``ground_height_fn`` anywhere (and the function never NaN); points
     lower than ``floor_m + tol_m`` by :data:`GROUND_FLOOR_MARGIN_M` are ground without calling
     the function, which sees the rest only. The same answer as without: such a point's height
     over any ground at or above the floor is below the tolerance by far more than rounding.
@@ -162,8 +162,9 @@ def _ground_mask_planes(planes: FloatArray, ground_height_fn: GroundHeightFn | N
     if floor_m is None:
         with np.errstate(invalid="ignore"):
             return np.asarray(z - np.asarray(ground_height_fn(x, y), dtype=np.float64) < tol_m)
+    mask = np.empty(z.shape, dtype=bool)  # C order whatever the planes' layout: written through below
     with np.errstate(invalid="ignore"):
-        mask = np.asarray(z < floor_m + tol_m - GROUND_FLOOR_MARGIN_M)  # NaN: asked below (not ground)
+        np.less(z, floor_m + tol_m - GROUND_FLOOR_MARGIN_M, out=mask)  # NaN: asked below (not ground)
     rest = np.flatnonzero(~mask)
     if rest.size:
         zr = z.reshape(-1)[rest]
@@ -276,7 +277,7 @@ def find_blobs(
     Returns blobs sorted by decreasing ``n_points`` (``blob_id`` is the index in that list).
     ``points_world``: this image's :func:`backproject` with the same ``stride``, when the
     caller already has it; ``points_planes``: its :func:`backproject_planes` (no copy); not
-    both (``ValueError``). ``ground_floor_m``: a height (m) no lower than ``ground_height_fn``
+    both (``ValueError``). ``ground_floor_m``: a height (m) no higher than ``ground_height_fn``
     anywhere, which then never returns NaN: points clearly below ``floor + ground_tol_m`` are taken
     as ground without calling it (the same blobs, less work: most of a downward frame is ground).
     Note the neighbour spacing grows with range (``stride * range / fx``):
