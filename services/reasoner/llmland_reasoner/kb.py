@@ -203,6 +203,11 @@ class KnowledgeBase:
         log.info("loaded kb %s: %d entries from %s", document.version, len(document.entries), source)
         return cls(document)
 
+    def copy(self) -> KnowledgeBase:
+        """An independent knowledge base with the same entries and version (an :meth:`add` to
+        either leaves the other as it was; the validated document itself is never changed)."""
+        return KnowledgeBase(self._doc)
+
     @property
     def version(self) -> str:
         return self._doc.version
@@ -224,7 +229,7 @@ class KnowledgeBase:
             pydantic.ValidationError: the entry breaks the schema or a category rule.
             KbEntryExistsError: ``replace`` is false and an entry with this id exists (checked in
                 the same call that writes, so two concurrent adds of one id cannot both succeed
-                when the writes are serialised, as the extractor's worker does).
+                when the writes are serialised, as ``Resources.write_lock`` does).
         """
         new = entry if isinstance(entry, KbEntry) else KbEntry.model_validate(entry)
         KbEntry.model_validate(new.model_dump())  # re-check even a pre-built model

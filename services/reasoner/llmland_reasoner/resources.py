@@ -8,6 +8,7 @@ instances (the evaluation runs all three modes on one set of loaded models).
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,6 +78,17 @@ def _load_kb(settings: ReasonerSettings) -> KnowledgeBase:
     return kb
 
 
+@dataclass(frozen=True)
+class KbParts:
+    """A KB version and what is built from it, swapped in together (:meth:`Resources.install`)."""
+
+    kb: KnowledgeBase
+    retriever: Retriever
+    names: NameIndex
+    finder: MentionFinder | None
+    mention_cache: MentionCache
+
+
 @dataclass
 class Resources:
     """Loaded models; ``None`` for a part the chosen mode(s) do not need."""
@@ -92,6 +104,8 @@ class Resources:
     #: grounded mentions (``mention_cache.py``); a new one for every KB version
     mention_cache: MentionCache | None = None
     load_s: dict[str, float] = field(default_factory=dict)
+    #: held through a KB write (:meth:`prepare_entry` to :meth:`install`): one write at a time
+    write_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     @classmethod
     def load(cls, settings: ReasonerSettings, *, retrieval: bool = True, llm: bool = True) -> Resources:
@@ -134,16 +148,27 @@ class Resources:
 
     def rebuild_retriever(self) -> None:
         """(Re)build or reload the index for the current KB version."""
-        if self.embed is None:
-            return
+        if self.embed is not None:
+            self.install(self.build_for(self.kb))
+
+    def build_for(self, kb: KnowledgeBase) -> KbParts:
+        """Everything that depends on the KB, built for ``kb`` without touching what is in use
+        (seconds: every entry embedded for the index and for the names); :meth:`install` then
+        puts it in place at once."""
+        assert self.embed is not None
         t0 = time.perf_counter()
-        self.retriever = Retriever(self.kb, self.embed, index_dir=self.settings.index_dir, top_k=self.settings.top_k)
-        self.names = NameIndex(self.embed.get_text_embedding_batch)
-        self.names.warm(self.kb.entries)
-        if self.wordnet is not None:
-            self.finder = MentionFinder(self.kb, self.wordnet)
-        self.mention_cache = MentionCache(self.grounding_settings_key())
+        retriever = Retriever(kb, self.embed, index_dir=self.settings.index_dir, top_k=self.settings.top_k)
+        names = NameIndex(self.embed.get_text_embedding_batch)
+        names.warm(kb.entries)
+        finder = MentionFinder(kb, self.wordnet) if self.wordnet is not None else None
+        parts = KbParts(kb, retriever, names, finder, MentionCache(self.grounding_settings_key()))
         self.load_s["index"] = time.perf_counter() - t0
+        return parts
+
+    def install(self, parts: KbParts) -> None:
+        """Put a KB and what :meth:`build_for` built for it in use (attribute swaps only)."""
+        self.kb, self.retriever, self.names = parts.kb, parts.retriever, parts.names
+        self.finder, self.mention_cache = parts.finder, parts.mention_cache
 
     def grounding_settings_key(self) -> str:
         """What a mention's grounding depends on besides the KB and the mention (see
@@ -155,11 +180,28 @@ class Resources:
                   *, replace: bool = True) -> KbEntry:
         """Validate and add a KB entry (new version), optionally save the KB, rebuild the index
         (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
-        added = self.kb.add(entry, replace=replace)
+        with self.write_lock:
+            added, parts = self.prepare_entry(entry, save_to, replace=replace)
+            if parts is not None:
+                self.install(parts)
+            return added
+
+    def prepare_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
+                      *, replace: bool = True) -> tuple[KbEntry, KbParts | None]:
+        """The KB with ``entry`` added (a copy: the one in use is not touched) and what depends on
+        it, built, and the new KB saved to ``save_to``; the caller installs the parts
+        (:meth:`install`; ``None``: nothing but the KB to swap, no retrieval loaded) holding
+        :attr:`write_lock` from this call on, so two writes cannot both start from one version.
+        An invalid entry (``pydantic.ValidationError``, :class:`~.kb.KbEntryExistsError`,
+        :class:`~.kb.KbNameTakenError`) raises before anything is built or saved."""
+        kb = self.kb.copy()
+        added = kb.add(entry, replace=replace)
+        parts = self.build_for(kb) if self.embed is not None else None
         if save_to is not None:
-            self.kb.save(save_to)
-        self.rebuild_retriever()
-        return added
+            kb.save(save_to)
+        if parts is None:
+            self.kb = kb
+        return added, parts
 
     def close(self) -> None:
         """Stop what runs outside this process (the LLM worker)."""

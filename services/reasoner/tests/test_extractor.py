@@ -250,3 +250,54 @@ def test_kb_extension_changes_the_cache_key(
     spec = extractor.extract("a robotic mower on a lawn")
     assert spec.label == "robot lawn mower" and spec.is_dynamic and spec.buffer_m == 5.0
     extractor.close()
+
+
+def test_captions_are_answered_while_a_kb_write_builds_its_index(
+    resources: Resources, tmp_path: object, robot_mower: dict[str, object], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A KB write builds the new index beside the extraction worker, not on it: while the build
+    is held (here until the test lets it go), captions are answered with the KB in use (its
+    version); then the new KB is in use. Was: the rebuild ran on the worker and every spec of
+    every drone waited for it (3.5 s quiet, ≈ 10 s beside flights)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    own = Resources.load(resources.settings, retrieval=True, llm=False)
+    extractor = SpecExtractor("retrieval", resources=own)
+    before = own.kb.version
+    building, release = threading.Event(), threading.Event()
+    build_for = own.build_for
+
+    def held_build(kb: object) -> object:
+        building.set()
+        release.wait()
+        return build_for(kb)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(own, "build_for", held_build)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        write = pool.submit(extractor.add_entry, robot_mower, save_to=f"{tmp_path}/kb.json")
+        try:
+            assert building.wait(timeout=60)
+            # the build is held until the end of this block: an answer waiting for it never comes
+            result = pool.submit(extractor.extract_detailed, "a robotic mower on a lawn").result(timeout=60)
+            assert not write.done() and own.kb.version == before
+            assert result.spec.label != "robot lawn mower" and not result.error
+        finally:
+            release.set()
+        write.result(timeout=120)
+    assert own.kb.version != before
+    assert extractor.extract("a robotic mower on a lawn").label == "robot lawn mower"
+    extractor.close()
+
+
+def test_an_invalid_kb_write_changes_nothing(resources: Resources, robot_mower: dict[str, object]) -> None:
+    """A write refused (an existing id, ``replace=False``) leaves the KB in use and its index as
+    they were."""
+    from llmland_reasoner.kb import KbEntryExistsError
+
+    own = Resources.load(resources.settings, retrieval=True, llm=False)
+    extractor = SpecExtractor("retrieval", resources=own)
+    kb, retriever = own.kb, own.retriever
+    with pytest.raises(KbEntryExistsError):
+        extractor.add_entry({**robot_mower, "id": "person"}, replace=False)
+    assert own.kb is kb and own.retriever is retriever
+    extractor.close()
