@@ -10,8 +10,9 @@
 
 Specs are cached by (normalised caption, KB version, mode). Any failure — timeout, model
 error, unparseable output, empty caption — gives ``SafetySpec.conservative`` with source
-``"fallback"``; :meth:`SpecExtractor.extract` never raises. All model work runs on one
-worker thread, so a slow call cannot block the caller beyond ``timeout_s``. The work goes on
+``"fallback"``; :meth:`SpecExtractor.extract` never raises. All of a caption's model work runs
+on one worker thread, so a slow call cannot block the caller beyond ``timeout_s`` (a KB write
+embeds its entries on the writer's thread and only swaps the new KB in on the worker). The work goes on
 only to its next step (:mod:`.deadline`: the mention loops, before an LLM call); a result that
 was already past its last step (one LLM call in ``llm`` mode) still lands in the cache. A caption
 longer than ``max_caption_words`` tokens is answered with the fallback at once.

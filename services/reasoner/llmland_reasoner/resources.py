@@ -149,7 +149,8 @@ class Resources:
     def rebuild_retriever(self) -> None:
         """(Re)build or reload the index for the current KB version."""
         if self.embed is not None:
-            self.install(self.build_for(self.kb))
+            with self.write_lock:
+                self.install(self.build_for(self.kb))
 
     def build_for(self, kb: KnowledgeBase) -> KbParts:
         """Everything that depends on the KB, built for ``kb`` without touching what is in use
@@ -188,10 +189,11 @@ class Resources:
 
     def prepare_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
                       *, replace: bool = True) -> tuple[KbEntry, KbParts | None]:
-        """The KB with ``entry`` added (a copy: the one in use is not touched) and what depends on
-        it, built, and the new KB saved to ``save_to``; the caller installs the parts
-        (:meth:`install`; ``None``: nothing but the KB to swap, no retrieval loaded) holding
-        :attr:`write_lock` from this call on, so two writes cannot both start from one version.
+        """The KB with ``entry`` added (to a copy: the KB object in use is never changed) and what
+        depends on it, built, and the new KB saved to ``save_to``; the caller installs the parts
+        (:meth:`install`) holding :attr:`write_lock` from this call on, so two writes cannot both
+        start from one version. Without retrieval nothing depends on the KB: the new one is put
+        in use here and ``None`` returned for the parts.
         An invalid entry (``pydantic.ValidationError``, :class:`~.kb.KbEntryExistsError`,
         :class:`~.kb.KbNameTakenError`) raises before anything is built or saved."""
         kb = self.kb.copy()
