@@ -55,6 +55,12 @@ CAREFUL_RANK: dict[str, int] = {
 MOVING = frozenset({"person", "animal", "vehicle"})
 #: Noun senses considered for a word WordNet has no frequency counts for.
 UNCOUNTED_SENSES = 4
+#: Synsets of what a person wears (WordNet 3.0): a noun one of whose first :data:`WORN_SENSES`
+#: senses has one of them on its hypernym closure can be worn ("shirt", "raincoat", "boots",
+#: "helmet", "apron"); :meth:`WordNet.wearable`
+WORN_ANCHORS = frozenset({"clothing.n.01", "headdress.n.01", "footwear.n.01", "footwear.n.02", "glove.n.02",
+                          "mask.n.04", "helmet.n.01", "helmet.n.02", "protective_garment.n.01", "apparel.n.01"})
+WORN_SENSES = 2
 #: Hypernym anchors, checked in this order on a sense's hypernym closure (the first hit classes it).
 ANCHORS: tuple[tuple[str, NounClass], ...] = (
     ("representation.n.02", "lookalike"),  # picture, photograph, drawing, model, figurine
@@ -223,6 +229,7 @@ class WordNet:
         self.noun_count = lru_cache(maxsize=65536)(self._noun_count)
         self._noun_lemmas: frozenset[str] | None = None
         self.part_of = lru_cache(maxsize=16384)(self._part_of)
+        self.wearable = lru_cache(maxsize=16384)(self._wearable)
 
     def _lemma(self, word: str) -> str:
         """The noun lemma ("people" stays, "geese" → "goose", "fields" → "field", not the
@@ -329,6 +336,18 @@ class WordNet:
                 for s in [sense, *sense.closure(lambda t: t.hypernyms())]:
                     if any(lemma.name().lower() == key for p in s.part_meronyms() for lemma in p.lemmas()):
                         return True
+        return False
+
+    def _wearable(self, word: str) -> bool:
+        """Whether ``word`` (a noun lemma) names something worn: one of its first
+        :data:`WORN_SENSES` senses is a garment, a headdress, footwear, a glove, a mask or a
+        helmet (:data:`WORN_ANCHORS`): "shirt", "raincoat", "sneakers", "hard hat"; not "car",
+        "backpack", "umbrella", "dog"."""
+        with self._lock:
+            for sense in self._wn.synsets(word.replace(" ", "_"), "n")[:WORN_SENSES]:
+                if sense.name() in WORN_ANCHORS or any(
+                        h.name() in WORN_ANCHORS for h in sense.closure(lambda t: t.hypernyms())):
+                    return True
         return False
 
     def _noun_class(self, word: str) -> NounClass | None:

@@ -125,6 +125,12 @@ WAYS = frozenset("across along over through into onto toward towards past".split
 #: Prepositions after which a person noun read mostly as an adjective heads its phrase ("an
 #: individual on a bike", "an individual in a red jacket").
 PERSON_PREPOSITIONS = frozenset("on in with near at by beside behind wearing holding carrying".split())
+#: Words that put what follows on the person named before them ("a person in a gray shirt", "a
+#: man wearing a red jacket", "a child dressed in a raincoat", "a worker with a hard hat")
+WEARING_CUES = frozenset("in wearing wears wore dressed with".split())
+#: How many words may stand between a person and what they wear ("in a bright yellow", "wearing
+#: his old")
+WEARING_REACH = 4
 #: Possessive determiners: a noun phrase starts after them ("a girl riding her bicyle").
 POSSESSIVES = frozenset("her his their its my our your".split())
 #: The shortest word (letters) read as a typing slip of a person's name.
@@ -610,7 +616,7 @@ class MentionFinder:
                 i += 1
         mentions = self._with_implied(words, self._without_collectives(words, self._heads(units)))
         mentions = with_verb_subjects(words, mentions, self.wordnet, self._implied_animal)
-        mentions = self._without_parts(words, self._mark_depicted(words, mentions))
+        mentions = self._without_worn(words, self._without_parts(words, self._mark_depicted(words, mentions)))
         mentions = sorted(self._mark_depiction_modifiers(words, mentions), key=lambda m: (m.start, m.end))
         return self._mark_negated(words, mentions)
 
@@ -628,6 +634,29 @@ class MentionFinder:
                 continue
             kept.append(m)
         return kept
+
+    def _without_worn(self, words: Sequence[str], mentions: list[Found]) -> list[Found]:
+        """Drop what a person named just before wears ("a person in a gray shirt walking on the
+        grass": the shirt was a thing of its own, grounded as the KB's nearest static entry, a
+        playground). A :data:`WEARING_CUES` word right after the person, at most
+        :data:`WEARING_REACH` words to the worn thing, nothing named between; never a person,
+        animal or vehicle ("a man in a car", "a woman with a dog" stay). The person stays, so the
+        caption keeps its care: what is dropped is static and the person's class is the more
+        careful."""
+        kept: list[Found] = []
+        for m in mentions:
+            wearer = kept[-1] if kept else None
+            gap = words[wearer.end : m.start] if wearer is not None else []
+            if (wearer is not None and wearer.word_class == "person" and m.word_class not in _LIVING_OR_VEHICLE
+                    and gap[:1] and gap[0] in WEARING_CUES and len(gap) <= WEARING_REACH
+                    and self._worn(m.text)):
+                continue
+            kept.append(m)
+        return kept
+
+    def _worn(self, text: str) -> bool:
+        """Whether a mention's words, or its last word's lemma, name something worn."""
+        return self.wordnet.wearable(text) or self.wordnet.wearable(self.wordnet.lemma(text.split()[-1]))
 
     def _heads(self, units: list[Found]) -> list[Found]:
         """Drop units that only qualify the next noun, keeping people, animals and vehicles."""
