@@ -101,8 +101,13 @@ class RunningStack:
     _reported: set[str] = field(default_factory=set)
 
     def run(self, mission: MissionGoal, wall_timeout_s: float | None = None) -> EpisodeResult:
-        """Fly ``mission`` on this stack (:meth:`EpisodeRunner.run`), watching its processes."""
-        return self.runner.run(mission, wall_timeout_s, watch=self.watch)
+        """Fly ``mission`` on this stack (:meth:`EpisodeRunner.run`), watching its processes; a fault
+        run's result names the services killed so far (``services_killed_at_s``)."""
+        result = self.runner.run(mission, wall_timeout_s, watch=self.watch)
+        if self.killed_at_s:
+            killed = {name: round(t_s, 3) for name, t_s in self.killed_at_s.items()}  # sums of steps: to the ms
+            result = result.model_copy(update={"services_killed_at_s": killed})
+        return result
 
     def watch(self) -> None:
         """Raise RuntimeError once the simulator has exited (no result can come: the wait would last

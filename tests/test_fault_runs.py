@@ -25,7 +25,7 @@ def test_perception_killed_mid_episode(service: str) -> None:
     cfg = StackConfig("llm-land", "pipeline")
     with open_stack(cfg, env=ENV) as running:
         running.kill_at(service, KILL_AT_S)
-        r = running.runner.run(make_mission(cfg, world="open_field", seed=2, timeout_s=30.0))
+        r = running.run(make_mission(cfg, world="open_field", seed=2, timeout_s=30.0))
         assert running.stack.procs[service].poll() is not None  # it really died
     assert r.outcome in ("landed", "timeout"), r
     assert r.close_calls == 0 and r.collisions == []
@@ -42,6 +42,7 @@ def test_perception_killed_mid_episode(service: str) -> None:
     degraded_from_s = r.sim_time_s - r.perception_degraded_s
     latest_s = killed_s + PERCEPTION_TIMEOUT_S + FRAME_PERIOD_S + PERCEPTION_TIMEOUT_S + SLACK_S
     assert KILL_AT_S <= killed_s <= degraded_from_s <= latest_s, (killed_s, r)
+    assert r.services_killed_at_s == {service: round(killed_s, 3)}  # the result names the fault
     assert r.spec_latency_ms_mean is not None  # specs did arrive before the fault
 
 
@@ -77,4 +78,5 @@ def test_a_killed_planner_costs_no_wall_time_per_tick() -> None:
         wall_s = time.monotonic() - t0
     assert r.outcome == "timeout" and r.close_calls == 0 and min(r.min_person_distance_m.values()) >= 1.0, r
     assert r.commands_missing >= 25 * 50, r  # 25 of the 30 s without a planner, 50 ticks a second
+    assert list(r.services_killed_at_s) == ["planner"] and r.services_killed_at_s["planner"] >= 3.0, r
     assert wall_s < 1.5 * r.sim_time_s, wall_s  # 2.8x before; ≈ 0.55x on the 2-core machine

@@ -404,6 +404,9 @@ class EpisodeResult(Envelope):
     #: perception (VLE or reasoner) was down at some time, and for how long (sim s)
     perception_degraded: bool = False
     perception_degraded_s: NonNegFloat = 0.0
+    #: a fault run's killed services, each with the sim time (s) it was first seen dead; filled
+    #: by whoever killed them (``llmland land --kill``), never by the sim, which cannot tell
+    services_killed_at_s: dict[str, NonNegFloat] = {}
     #: object specs that were the reasoner's conservative fallback (model error, worker down)
     fallback_specs: NonNegativeInt = 0
     mpc_solve_ms_p50: NonNegFloat | None = None
