@@ -50,6 +50,7 @@ from .words import (
     SHOWING_VERBS,
     UNCERTAIN,
     VAGUE_NOUNS,
+    fold_text,
 )
 
 #: The longest KB name, in words.
@@ -207,9 +208,10 @@ def _implied_unit(entry: KbEntry | None, wordnet_class: str) -> tuple[int, str, 
 
 
 def tokenize(caption: str) -> list[str]:
-    """Lower-case words; possessives folded ("people's" → "people"); an operator's shorthand
-    written out (:data:`SHORTHAND`: "2 ppl nr pad" → "2 people nr pad"), one word for one."""
-    words = (t.removesuffix("'s") for t in _TOKEN.findall(caption.lower()))
+    """Lower-case words, letters folded (:func:`.words.fold_text`: "café" → "cafe"); possessives
+    folded ("people's" → "people"); an operator's shorthand written out (:data:`SHORTHAND`: "2 ppl
+    nr pad" → "2 people nr pad"), one word for one."""
+    words = (t.removesuffix("'s") for t in _TOKEN.findall(fold_text(caption).lower()))
     return [SHORTHAND.get(w, w) for w in words]
 
 

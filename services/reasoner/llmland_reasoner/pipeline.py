@@ -21,11 +21,13 @@ from .kb import KbEntry
 from .mentions import Found
 from .resources import Resources
 from .safety import Alternative, Grounded, Numbers, ground_mentions, most_careful
+from .words import fold_text
 
 
 def normalize_caption(caption: str) -> str:
-    """Lower-case, single spaces, no surrounding punctuation: the cache key and model input."""
-    text = re.sub(r"\s+", " ", str(caption)).strip().lower()
+    """Letters folded (:func:`.words.fold_text`), lower-case, single spaces, no surrounding
+    punctuation: the cache key and model input."""
+    text = re.sub(r"\s+", " ", fold_text(str(caption))).strip().lower()
     return text.strip(" .,;:!?\"'")
 
 

@@ -1,7 +1,28 @@
 """Closed word classes of captions, shared by the mention finder (:mod:`.mentions`) and the
-verb rules (:mod:`.subjects`)."""
+verb rules (:mod:`.subjects`), and how a caption's letters are folded to the ones they read."""
 
 from __future__ import annotations
+
+import unicodedata
+
+#: Letters Unicode does not decompose into a base letter and marks, written as English writes
+#: them; and typographic apostrophes, quotes and dashes as their ASCII forms.
+_FOLDED = str.maketrans({
+    "ß": "ss", "æ": "ae", "Æ": "AE", "œ": "oe", "Œ": "OE", "ø": "o", "Ø": "O", "ł": "l", "Ł": "L",
+    "đ": "d", "Đ": "D", "ð": "d", "þ": "th", "ı": "i",
+    "\u2019": "'", "\u2018": "'", "\u02bc": "'", "\u2032": "'", "\u201c": '"', "\u201d": '"',
+    "\u2013": "-", "\u2014": " - ", "\u2212": "-",
+})
+
+
+def fold_text(text: str) -> str:
+    """A caption's Latin letters without their accents and its typographic punctuation as ASCII
+    ("a café terrace" → "a cafe terrace", "the plaza’s edge" → "the plaza's edge", "a Škoda" →
+    "a Skoda"): the words are read a-z (they were cut at the accent: "caf", "fianc" + "e").
+    Compatibility forms are decomposed too (NFKD: "ﬁeld" → "field", full-width letters); other
+    scripts and emoji are left as they are (still no word the reasoner reads)."""
+    decomposed = unicodedata.normalize("NFKD", text.translate(_FOLDED))
+    return "".join(ch for ch in decomposed if not unicodedata.combining(ch))
 
 #: Words that open a noun phrase (articles, demonstratives, quantities).
 DETERMINERS = frozenset(

@@ -301,3 +301,12 @@ def test_an_invalid_kb_write_changes_nothing(resources: Resources, robot_mower: 
         extractor.add_entry({**robot_mower, "id": "person"}, replace=False)
     assert own.kb is kb and own.retriever is retriever
     extractor.close()
+
+
+def test_an_accented_caption_is_its_plain_spelling(rag: SpecExtractor) -> None:
+    """"a fiancée walking a dog" was read as "fianc" + "e" (an unknown thing, 5 m) beside the dog;
+    folded, it is the plain spelling's caption: the same cache entry, a person's spec."""
+    accented = rag.extract_detailed("A fiancée walking a dog")
+    plain = rag.extract_detailed("a fiancee walking a dog")
+    assert plain.cached and plain.spec.label == accented.spec.label
+    assert accented.spec.is_human and accented.spec.buffer_m == 3.0

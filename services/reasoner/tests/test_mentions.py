@@ -401,3 +401,26 @@ def test_words_wordnet_lacks_that_name_beings(finder: MentionFinder, caption: st
 ])
 def test_what_a_person_wears_is_part_of_them(finder: MentionFinder, caption: str, expected: dict[str, str]) -> None:
     assert present(finder.find(caption)) == expected
+
+
+@pytest.mark.parametrize(("caption", "ascii_caption"), [
+    # accents were word breaks ("caf", "fianc" + "e": an unknown thing, 5 m); typographic
+    # apostrophes broke the possessive ("plaza’s" was "plaza" + "s"); compatibility ligatures
+    ("people at a café terrace", "people at a cafe terrace"),
+    ("a fiancée walking a dog", "a fiancee walking a dog"),
+    ("a Škoda parked by a road", "a Skoda parked by a road"),
+    ("a crowd at the plaza’s edge", "a crowd at the plaza's edge"),
+    ("a naïve child on a ﬁeld", "a naive child on a field"),
+    ("two men — one on a bike", "two men - one on a bike"),
+])
+def test_accents_and_typographic_marks_read_as_their_letters(finder: MentionFinder, caption: str,
+                                                             ascii_caption: str) -> None:
+    assert [(m.text, m.word_class, m.status) for m in finder.find(caption)] == \
+        [(m.text, m.word_class, m.status) for m in finder.find(ascii_caption)]
+    assert finder.find(caption)  # something is read
+
+
+def test_other_scripts_are_still_no_words() -> None:
+    """Folding keeps what is not a Latin letter: a caption in another script or of emoji is still
+    refused as having no word the reasoner reads (``tokenize`` gives nothing)."""
+    assert tokenize("狗") == [] and tokenize("🐕") == [] and tokenize("собака") == []
