@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from llmland_schemas import SafetySpec
 
-from .extractor import SpecExtractor
+from .extractor import SpecExtractor, add_entry_paused
 from .kb import KbEntry, KbEntryExistsError, add_to_additions, usable_additions
 from .resources import Resources
 from .settings import Mode, ReasonerSettings
@@ -48,20 +49,27 @@ class ReasonerEngine:
         the additions file (``settings.kb_additions_path``); caches cleared (``replace=False``:
         :class:`~.kb.KbEntryExistsError` for an existing id)."""
         if self.settings.kb_path is not None:
-            added = self.extractor().add_entry(entry, save_to=self.settings.kb_path, replace=replace)
+            added = self._add(entry, self.settings.kb_path, replace)
         else:
             path = self.settings.kb_additions_path
             with self._lock:  # before the KB changes: a write that cannot be kept changes nothing
                 recorded = usable_additions(path)
             if not replace and any(e.id == entry.id for e in recorded):
                 raise KbEntryExistsError(f"KB entry {entry.id!r} exists in {path}")  # not loaded here
-            added = self.extractor().add_entry(entry, replace=replace)
+            added = self._add(entry, None, replace)
             with self._lock:
                 add_to_additions(path, added)
         with self._lock:
             for ex in self._extractors.values():
                 ex.clear_cache()
         return added
+
+    def _add(self, entry: KbEntry, save_to: str | Path | None, replace: bool) -> KbEntry:
+        """The write, put in use with every mode's extractor paused (none straddles the swap; a
+        new one waits for it: ``_lock`` is held)."""
+        self.extractor()  # the configured mode's, so that there is one to pause
+        with self._lock:
+            return add_entry_paused(self.resources, list(self._extractors.values()), entry, save_to, replace=replace)
 
     def models(self) -> dict[str, str]:
         return dict(self.resources.model_names)

@@ -24,9 +24,10 @@ import logging
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
@@ -182,13 +183,26 @@ class SpecExtractor:
         every drone back as long when it ran on this extractor's worker); the new KB is then put
         in use between two extractions. One write at a time (``Resources.write_lock``), so two
         concurrent adds of one id cannot both succeed (``replace=False``:
-        :class:`~.kb.KbEntryExistsError` for an existing id)."""
-        res = self.resources
-        with res.write_lock:
-            added, parts = res.prepare_entry(entry, save_to, replace=replace)
-            if parts is not None:
-                self._worker.submit(res.install, parts).result()
-        return added
+        :class:`~.kb.KbEntryExistsError` for an existing id). Other extractors sharing the
+        resources: :meth:`.engine.ReasonerEngine.add_entry` pauses them all."""
+        return add_entry_paused(self.resources, [self], entry, save_to, replace=replace)
+
+    @contextmanager
+    def paused(self) -> Iterator[None]:
+        """Hold this extractor's worker between two extractions (after the one in progress, if
+        any) for the block: a KB swap no extraction of this mode straddles."""
+        parked, release = threading.Event(), threading.Event()
+
+        def park() -> None:
+            parked.set()
+            release.wait()
+
+        self._worker.submit(park)
+        try:
+            parked.wait()
+            yield
+        finally:
+            release.set()
 
     def clear_cache(self) -> None:
         """Forget cached specs and grounded mentions (after a KB write)."""
@@ -321,3 +335,18 @@ _HAS_IS_HUMAN = "is_human" in SafetySpec.model_fields
 
 def _ms(started: float) -> float:
     return round(1e3 * (time.perf_counter() - started), 3)
+
+
+def add_entry_paused(resources: Resources, extractors: Sequence[SpecExtractor], entry: KbEntry | dict[str, object],
+                     save_to: str | Path | None = None, *, replace: bool = True) -> KbEntry:
+    """A KB write (:meth:`Resources.prepare_entry`, on the calling thread) put in use while every
+    one of ``extractors`` (all those sharing ``resources``) is paused between two extractions,
+    so no extraction, in any mode, reads parts of two KB versions."""
+    with resources.write_lock:
+        added, parts = resources.prepare_entry(entry, save_to, replace=replace)
+        if parts is not None:
+            with ExitStack() as stack:
+                for ex in extractors:
+                    stack.enter_context(ex.paused())
+                resources.install(parts)
+    return added

@@ -310,3 +310,67 @@ def test_an_accented_caption_is_its_plain_spelling(rag: SpecExtractor) -> None:
     plain = rag.extract_detailed("a fiancee walking a dog")
     assert plain.cached and plain.spec.label == accented.spec.label
     assert accented.spec.is_human and accented.spec.buffer_m == 3.0
+
+
+def test_no_extraction_in_any_mode_straddles_a_kb_swap(
+    resources: Resources, tmp_path: object, robot_mower: dict[str, object], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A KB write through the engine puts the new KB in use only between two extractions of every
+    mode: an extraction of another mode in progress when the new index is ready ends with the KB
+    it began with (it read the new KB's mention finder with the old KB's retriever before: a
+    review's script). Here that extraction is held inside its retrieval until the write has
+    built its index; the swap waits for it."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from llmland_reasoner import retrieval
+    from llmland_reasoner.engine import ReasonerEngine
+    from llmland_reasoner.kb import KbEntry
+
+    own = Resources.load(resources.settings, retrieval=True, llm=False)
+    settings = own.settings.model_copy(update={"mode": "retrieval", "kb_path": f"{tmp_path}/kb.json",
+                                               "rag_pointer": "retrieval"})
+    engine = ReasonerEngine(settings, own)
+    rag = engine.extractor("rag")
+    before = own.kb.version
+    entered, release, built, installed = threading.Event(), threading.Event(), threading.Event(), threading.Event()
+    seen: dict[str, str] = {}
+    retrieve = retrieval.Retriever.retrieve
+
+    def held(self: retrieval.Retriever, *args: object, **kwargs: object) -> object:
+        out = retrieve(self, *args, **kwargs)  # type: ignore[arg-type]
+        if threading.current_thread().name.startswith("reasoner-rag") and not entered.is_set():
+            seen["retriever"] = self.kb.version
+            entered.set()
+            release.wait()
+            seen["after"] = own.kb.version  # the KB the rest of this extraction reads
+        return out
+
+    install, build_for = own.install, own.build_for
+
+    def noted_build(kb: object) -> object:
+        parts = build_for(kb)  # type: ignore[arg-type]
+        built.set()
+        return parts
+
+    def noted_install(parts: object) -> None:
+        install(parts)  # type: ignore[arg-type]
+        installed.set()
+
+    monkeypatch.setattr(retrieval.Retriever, "retrieve", held)
+    monkeypatch.setattr(own, "install", noted_install)
+    monkeypatch.setattr(own, "build_for", noted_build)
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        held_extraction = pool.submit(rag.extract_detailed, "a robotic mower on a lawn")
+        try:
+            assert entered.wait(timeout=60)
+            write = pool.submit(engine.add_entry, KbEntry.model_validate(robot_mower))
+            assert built.wait(timeout=120)
+            assert not installed.wait(timeout=3)  # ms after the build before; now not while rag runs
+        finally:
+            release.set()
+        held_extraction.result(timeout=60)
+        write.result(timeout=120)
+    assert seen == {"retriever": before, "after": before}
+    assert installed.is_set() and own.kb.version != before
+    assert engine.extract("a robotic mower on a lawn", "rag").label == "robot lawn mower"
+    engine.close()
