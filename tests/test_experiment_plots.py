@@ -42,3 +42,20 @@ def test_trial_rows_group_by_variant(tmp_path: Path, monkeypatch: pytest.MonkeyP
     assert len(set(labels)) == len(EXP3_LLMS)
     assert all(t.get_rotation() > 0 for t in figures[0].axes[0].get_xticklabels())  # long names: slanted
     assert (tmp_path / "spec_latency.png").stat().st_size > 5_000
+
+
+def test_methods_with_the_same_trials_stay_apart_in_closest_person(tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two methods with identical closest approaches drew one step line over the other: one method
+    vanished from the plot. Each now has its own line style and width, and its legend says how many
+    trials it has and its smallest approach."""
+    rows = [{"method": m, "closest_person_m": str(d)} for m in ("baseline", "conservative") for d in (1.8, 2.5, 4.0)]
+    figures = _drawn(monkeypatch)
+    plots.closest_approach(rows, tmp_path / "closest_person.png")
+    ax = figures[0].axes[0]
+    steps = [p for p in ax.patches]
+    assert len(steps) == 2
+    assert len({(p.get_linestyle(), p.get_linewidth()) for p in steps}) == 2
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any("baseline" in t and "n=3" in t and "min 1.80 m" in t for t in labels), labels
+    assert any("conservative" in t and "n=3" in t for t in labels), labels
