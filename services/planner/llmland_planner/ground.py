@@ -120,7 +120,6 @@ class GroundMap:
         self._max_slope = max_slope
         self._floor_cache: tuple[FloatArray, tuple[float, float], ReachFloor] | None = None
         self._ground = np.full((self.n, self.n), self.centre[2])
-        self._surface = self._make_surface()
         self._dirty = False
         self._staged: dict[tuple[float, str], FloatArray | None] = {}
         self._lock = threading.Lock()
@@ -175,16 +174,12 @@ class GroundMap:
         z = np.where(observed, self._zmin, 1e6)
         env = ndimage.grey_erosion(z, footprint=self._footprint, structure=self._cone, mode="nearest")
         self._ground = np.where(env < 1e5, env, self.centre[2])
-        self._surface = self._make_surface()
         self._dirty = False
-
-    def _make_surface(self) -> GroundSurface:
-        return GroundSurface(self.origin.copy(), self.cell, self._ground, float(self.centre[2]))
 
     def surface(self) -> GroundSurface:
         """The committed estimate as one frozen :class:`GroundSurface` (heights and their lower
-        bound from the same commit)."""
-        return self._surface
+        bound from the same commit: a commit replaces the heights' array, never changes it)."""
+        return GroundSurface(self.origin, self.cell, self._ground, float(self.centre[2]))
 
     def reach_floor(self, reach_m: float, clearance_m: float) -> ReachFloor:
         """The floor (m) ``clearance_m`` above the highest ground within ``reach_m`` horizontally.
@@ -214,4 +209,4 @@ class GroundMap:
 
     def height(self, x: FloatArray, y: FloatArray) -> FloatArray:
         """Ground height (m) under world points (vectorised over equal shapes), committed points only."""
-        return self._surface(x, y)
+        return self.surface()(x, y)
