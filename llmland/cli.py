@@ -73,12 +73,12 @@ def _mission(args: argparse.Namespace, cfg: StackConfig, seed: int, rrd: str | N
                         scenario=args.scenario)
 
 
-def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: Mapping[str, float] | None = None,
-                 kills: Sequence[tuple[str, float]] = ()) -> str:
+def summary_line(r: EpisodeResult, startup_s: float | None = None, kills: Sequence[tuple[str, float]] = ()) -> str:
     """One human-readable line: outcome, touchdown error, closest person, spec latency, wall time
     (and the services' start-up before it, ``startup_s``, when given); last, a fault run's kills
-    (``kills``: service, sim s asked) with the sim time (s) each service died at (``killed_at_s``),
-    or that it never fired (the episode ended first)."""
+    (``kills``: service, sim s asked) with the sim time (s) each service died at (the result's
+    ``services_killed_at_s``), or that it never fired (the episode ended first)."""
+    killed_at_s = r.services_killed_at_s
     td = f"{r.touchdown_error_m:.2f} m" if r.touchdown_error_m is not None else "—"
     closest = f"{min(r.min_person_distance_m.values()):.2f} m" if r.min_person_distance_m else "no person"
     lat = f"{r.spec_latency_ms_mean:.0f} ms" if r.spec_latency_ms_mean is not None else "—"
@@ -88,7 +88,7 @@ def summary_line(r: EpisodeResult, startup_s: float | None = None, killed_at_s: 
             f"{r.wall_time_s:.1f} s wall{degraded}"
             + (f" (after {startup_s:.1f} s of service start-up)" if startup_s is not None else "")
             + "".join(f"; fault run: {name} killed at {killed_at_s[name]:.1f} s"
-                      if killed_at_s and name in killed_at_s else f"; fault run: {name}@{at:g} never fired"
+                      if name in killed_at_s else f"; fault run: {name}@{at:g} never fired"
                       for name, at in kills))
 
 
@@ -115,7 +115,7 @@ def cmd_land(args: argparse.Namespace) -> int:
         except (RuntimeError, TimeoutError) as exc:  # the sim died, or no result in the wall limit
             log.error("%s", exc)
             return 1
-    sys.stderr.write(summary_line(result, startup_s, running.killed_at_s, args.kill) + "\n")
+    sys.stderr.write(summary_line(result, startup_s, args.kill) + "\n")
     sys.stderr.flush()
     sys.stdout.write(result.model_dump_json(indent=2) + "\n")
     return 0 if result.success or not args.strict else 1

@@ -193,8 +193,9 @@ def test_the_summary_line_names_a_fault_run() -> None:
     r = EpisodeResult(drone_id="d0", stamp=30.0, seq=1500, episode_id="e", world="urban", seed=3, method="llm-land",
                       clock="lockstep", success=True, outcome="landed", touchdown_error_m=0.0, time_to_land_s=30.0,
                       min_person_distance_m={"person_0": 1.96}, close_calls=0, collisions=[], sim_time_s=30.0,
-                      wall_time_s=12.0, perception_degraded=True, perception_degraded_s=25.0)
-    line = summary_line(r, 3.1, killed_at_s={"reasoner": 5.02}, kills=[("reasoner", 5.0), ("planner", 50.0)])
+                      wall_time_s=12.0, perception_degraded=True, perception_degraded_s=25.0,
+                      services_killed_at_s={"reasoner": 5.02})
+    line = summary_line(r, 3.1, kills=[("reasoner", 5.0), ("planner", 50.0)])
     assert line.endswith("(after 3.1 s of service start-up); fault run: reasoner killed at 5.0 s; "
                          "fault run: planner@50 never fired")
     assert "fault run" not in summary_line(r)

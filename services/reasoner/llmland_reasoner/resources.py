@@ -177,16 +177,6 @@ class Resources:
         embed = self.embed.model_name if self.embed is not None else "-"
         return f"embed={embed};wordnet={self.wordnet is not None};window={WINDOW_WORDS};bonus={NAME_MATCH_BONUS}"
 
-    def add_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
-                  *, replace: bool = True) -> KbEntry:
-        """Validate and add a KB entry (new version), optionally save the KB, rebuild the index
-        (``replace=False``: :class:`~.kb.KbEntryExistsError` for an existing id)."""
-        with self.write_lock:
-            added, parts = self.prepare_entry(entry, save_to, replace=replace)
-            if parts is not None:
-                self.install(parts)
-            return added
-
     def prepare_entry(self, entry: KbEntry | dict[str, object], save_to: str | Path | None = None,
                       *, replace: bool = True) -> tuple[KbEntry, KbParts | None]:
         """The KB with ``entry`` added (to a copy: the KB object in use is never changed) and what
